@@ -1,0 +1,15 @@
+//! `qean`: music-conditioned 3D dance generation (FACT and QEAN). A thin CLI over the workspace crates.
+
+use clap::Parser;
+
+mod cli;
+
+fn main() {
+    let args = cli::Cli::parse();
+    cli::init_logging(args.verbose);
+    if let Err(e) = cli::run(args) {
+        // One line, naming the file and the problem; details of the chain joined by ": ".
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
