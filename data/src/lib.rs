@@ -2,6 +2,17 @@
 //! forward kinematics, audio features, and the synthetic AIST++-format generator. Plain f64/f32 Rust.
 
 pub mod error;
+pub mod fk;
+pub mod fsutil;
+pub mod motion;
 pub mod names;
+pub mod npy;
+pub mod pickle;
+pub mod rotation;
+pub mod skeleton;
+#[doc(hidden)]
+pub mod testdata;
 
 pub use error::{Error, Result};
+pub use fk::FkRoot;
+pub use motion::{Layout, Motion};

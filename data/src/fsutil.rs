@@ -1,0 +1,104 @@
+//! Atomic file output: write to a temporary sibling, then rename, so readers and crashes never see a
+//! half-written file.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+
+/// A temporary path next to `path` (same directory, so the final rename is atomic).
+pub fn temp_sibling(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    let unique = format!(
+        ".{name}.{}.{}.tmp",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.subsec_nanos())
+            .unwrap_or(0)
+    );
+    path.with_file_name(unique)
+}
+
+/// Write `bytes` to `path` atomically. The parent directory must exist.
+pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    if let Some(dir) = parent {
+        if !dir.is_dir() {
+            return Err(Error::at(dir, "output directory does not exist"));
+        }
+    }
+    let tmp = temp_sibling(path);
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::io(path, e));
+    }
+    Ok(())
+}
+
+/// Create `dir` by building it under a temporary name with `fill`, then renaming it into place.
+/// If `fill` fails, nothing is left behind. `dir` must not exist yet.
+pub fn atomic_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
+    if dir.exists() {
+        return Err(Error::at(dir, "already exists (refusing to overwrite)"));
+    }
+    let parent = dir.parent().filter(|p| !p.as_os_str().is_empty());
+    if let Some(p) = parent {
+        if !p.is_dir() {
+            return Err(Error::at(p, "parent directory does not exist"));
+        }
+    }
+    let tmp = temp_sibling(dir);
+    std::fs::create_dir(&tmp).map_err(|e| Error::io(&tmp, e))?;
+    match fill(&tmp) {
+        Ok(v) => {
+            if let Err(e) = std::fs::rename(&tmp, dir) {
+                let _ = std::fs::remove_dir_all(&tmp);
+                return Err(Error::io(dir, e));
+            }
+            Ok(v)
+        }
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&tmp);
+            Err(e)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn atomic_dir_leaves_nothing_on_failure() {
+        let root = tempfile::tempdir().unwrap();
+        let target = root.path().join("out");
+        let r: Result<()> = atomic_dir(&target, |tmp| {
+            std::fs::write(tmp.join("a.txt"), b"x").unwrap();
+            Err(Error::msg("boom"))
+        });
+        assert!(r.is_err());
+        assert_eq!(std::fs::read_dir(root.path()).unwrap().count(), 0);
+        atomic_dir(&target, |tmp| {
+            std::fs::write(tmp.join("a.txt"), b"x").map_err(|e| Error::io(tmp, e))
+        })
+        .unwrap();
+        assert!(target.join("a.txt").is_file());
+    }
+
+    #[test]
+    fn atomic_write_missing_dir() {
+        let root = tempfile::tempdir().unwrap();
+        let e = atomic_write(&root.path().join("nope/x.bin"), b"1").unwrap_err();
+        assert!(e.to_string().contains("does not exist"));
+    }
+}
