@@ -1,6 +1,7 @@
 //! qean-data: everything before the model. AIST++ files and splits, motion layouts, rotations and SMPL
 //! forward kinematics, audio features, and the synthetic AIST++-format generator. Plain f64/f32 Rust.
 
+pub mod dataset;
 pub mod error;
 pub mod fk;
 pub mod fsutil;
@@ -10,8 +11,10 @@ pub mod npy;
 pub mod pickle;
 pub mod rotation;
 pub mod skeleton;
+pub mod synth;
 #[doc(hidden)]
 pub mod testdata;
+pub mod wav;
 
 pub use error::{Error, Result};
 pub use fk::FkRoot;

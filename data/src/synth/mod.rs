@@ -1,0 +1,333 @@
+//! A synthetic dataset in exactly the AIST++ layout (see [`crate::dataset`]): procedural music per music ID
+//! and procedural dances phase-locked to it, with train/val/test splits that follow the AIST++ naming rules
+//! (test = `sBM … _ch02` on the ten official test music IDs, val = the same with `_ch01`, train on the other
+//! music IDs). Deterministic for a given seed.
+
+pub mod dance;
+pub mod music;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use crate::dataset::Split;
+use crate::error::{Error, Result};
+use crate::fsutil::atomic_write;
+use crate::motion::{Precision, FPS};
+use crate::names::{tempo_prior, GENRES};
+use dance::{BeatGrid, DanceStyle};
+use music::{Groove, MusicSpec};
+
+/// The official AIST++ test music ID of each genre (in [`GENRES`] order).
+pub const TEST_MUSIC: [&str; 10] = [
+    "mBR0", "mPO1", "mLO2", "mMH3", "mLH4", "mHO5", "mWA0", "mKR2", "mJS3", "mJB5",
+];
+
+/// AIST++ dancer IDs of each genre (in [`GENRES`] order), as in the official split lists.
+const DANCERS: [[u32; 3]; 10] = [
+    [4, 5, 6],
+    [10, 11, 12],
+    [13, 14, 15],
+    [22, 23, 24],
+    [16, 17, 18],
+    [19, 20, 21],
+    [25, 26, 27],
+    [28, 29, 30],
+    [1, 2, 3],
+    [7, 8, 9],
+];
+
+#[derive(Debug, Clone)]
+pub struct SynthOptions {
+    /// Total number of sequences (train + val + test).
+    pub sequences: usize,
+    /// Length of each sequence in seconds (sequences vary between 85% and 100% of it).
+    pub seconds: f64,
+    pub seed: u64,
+    /// Sample rate of the written music. 30720 Hz (the feature rate) avoids resampling later.
+    pub sample_rate: u32,
+}
+
+impl Default for SynthOptions {
+    fn default() -> Self {
+        SynthOptions {
+            sequences: 60,
+            seconds: 16.0,
+            seed: 0,
+            sample_rate: 30720,
+        }
+    }
+}
+
+/// What was generated.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SynthReport {
+    pub seed: u64,
+    pub seconds: f64,
+    pub sample_rate: u32,
+    pub splits: BTreeMap<String, Vec<String>>,
+    /// Per music ID: tempo, first beat (s) and the phrase chords.
+    pub music: BTreeMap<String, MusicInfo>,
+}
+
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct MusicInfo {
+    pub bpm: f64,
+    pub first_beat: f64,
+    pub seconds: f64,
+    pub phrase_chords: Vec<usize>,
+}
+
+fn groove_of(genre: &str) -> Groove {
+    match genre {
+        "HO" | "PO" | "WA" => Groove::FourOnFloor,
+        "JS" | "JB" | "LO" => Groove::Swing,
+        _ => Groove::Breakbeat,
+    }
+}
+
+/// A stable 64-bit hash (FNV-1a), so per-item seeds do not depend on generation order.
+fn fnv(s: &str) -> u64 {
+    s.bytes().fold(0xcbf29ce484222325, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x100000001b3)
+    })
+}
+
+/// The sequence names of each split for `n` sequences in total.
+pub fn plan_names(n: usize) -> Result<BTreeMap<Split, Vec<String>>> {
+    if n < 3 {
+        return Err(Error::msg("--sequences must be at least 3 (one per split)"));
+    }
+    let eval_each = (n / 6).clamp(1, 30);
+    let train = n - 2 * eval_each;
+    let mut out = BTreeMap::new();
+    for (split, ch) in [(Split::Test, 2), (Split::Val, 1)] {
+        let names = (0..eval_each)
+            .map(|i| {
+                let g = i % 10;
+                let d = DANCERS[g][(i / 10) % 3];
+                format!(
+                    "g{}_sBM_cAll_d{d:02}_{}_ch{ch:02}",
+                    GENRES[g], TEST_MUSIC[g]
+                )
+            })
+            .collect();
+        out.insert(split, names);
+    }
+    let mut names = Vec::with_capacity(train);
+    for i in 0..train {
+        let g = i % 10;
+        let test_k = TEST_MUSIC[g].as_bytes()[3] - b'0';
+        let ks: Vec<u8> = (0..6).filter(|&k| k != test_k).collect();
+        let k = ks[(i / 10) % 5];
+        let d = DANCERS[g][(i / 50) % 3];
+        let round = i / 150;
+        // Basic dances first, then advanced ones, as choreographies run out.
+        let (sit, ch) = if round % 2 == 0 {
+            ("sBM", 3 + round / 2)
+        } else {
+            ("sFM", 1 + round / 2)
+        };
+        names.push(format!(
+            "g{}_{sit}_cAll_d{d:02}_m{}{k}_ch{ch:02}",
+            GENRES[g], GENRES[g]
+        ));
+    }
+    out.insert(Split::Train, names);
+    Ok(out)
+}
+
+/// Generate the dataset into `out`, which must not exist or be empty. Built in a temporary sibling and renamed
+/// into place, so an interrupted run leaves nothing behind.
+pub fn generate(out: &Path, opts: &SynthOptions) -> Result<SynthReport> {
+    if !(opts.seconds >= 1.0 && opts.seconds <= 600.0) {
+        return Err(Error::msg(format!(
+            "--seconds must be between 1 and 600, got {}",
+            opts.seconds
+        )));
+    }
+    if out.exists() {
+        let empty = out
+            .read_dir()
+            .map_err(|e| Error::io(out, e))?
+            .next()
+            .is_none();
+        if !empty {
+            return Err(Error::at(out, "output directory exists and is not empty"));
+        }
+        std::fs::remove_dir(out).map_err(|e| Error::io(out, e))?;
+    }
+    let plan = plan_names(opts.sequences)?;
+    crate::fsutil::atomic_dir(out, |tmp| write_dataset(tmp, opts, &plan))
+}
+
+fn write_dataset(
+    dir: &Path,
+    opts: &SynthOptions,
+    plan: &BTreeMap<Split, Vec<String>>,
+) -> Result<SynthReport> {
+    for sub in ["motions", "wav", "splits"] {
+        std::fs::create_dir(dir.join(sub)).map_err(|e| Error::io(dir.join(sub), e))?;
+    }
+    let all: Vec<&String> = plan.values().flatten().collect();
+    let mut music_ids: Vec<String> = all
+        .iter()
+        .filter_map(|n| crate::names::music_id_of(n))
+        .collect();
+    music_ids.sort();
+    music_ids.dedup();
+
+    // Music: one track per music ID, a little longer than the longest dance.
+    let music_seconds = opts.seconds + 1.0;
+    let mut music = BTreeMap::new();
+    for id in &music_ids {
+        let mut rng = ChaCha8Rng::seed_from_u64(opts.seed ^ fnv(id));
+        let bpm = tempo_prior(id).expect("planned IDs are valid");
+        let genre = &id[1..3];
+        let spec = MusicSpec::random(&mut rng, bpm, groove_of(genre), music_seconds);
+        let samples = music::render(&spec, opts.sample_rate, &mut rng);
+        crate::wav::write_pcm16(
+            &dir.join("wav").join(format!("{id}.wav")),
+            &samples,
+            opts.sample_rate,
+        )?;
+        music.insert(id.clone(), spec);
+    }
+
+    for name in &all {
+        let parsed = crate::names::SequenceName::parse(name)?;
+        let spec = &music[&parsed.music_id];
+        let mut rng = ChaCha8Rng::seed_from_u64(opts.seed ^ fnv(name));
+        let seconds = opts.seconds * rng.random_range(0.85..=1.0);
+        let frames = (seconds * FPS).round() as usize;
+        let grid = BeatGrid {
+            beat_times: spec.beat_times(),
+            phrase_chords: spec.phrase_chords.clone(),
+        };
+        let style = DanceStyle {
+            genre: parsed.genre.clone(),
+            choreo: parsed.choreo as usize,
+            energy: rng.random_range(0.8..1.2),
+            seed: rng.random(),
+            scaling: rng.random_range(85.0..105.0),
+        };
+        let motion = dance::generate(&grid, &style, frames);
+        motion.write_pkl(
+            &dir.join("motions").join(format!("{name}.pkl")),
+            Precision::F32,
+        )?;
+    }
+
+    for (split, names) in plan {
+        let text = names.join("\n");
+        atomic_write(&dir.join("splits").join(split.file_name()), text.as_bytes())?;
+    }
+    atomic_write(&dir.join("ignore_list.txt"), b"")?;
+
+    let report = SynthReport {
+        seed: opts.seed,
+        seconds: opts.seconds,
+        sample_rate: opts.sample_rate,
+        splits: plan
+            .iter()
+            .map(|(s, n)| (s.name().to_string(), n.clone()))
+            .collect(),
+        music: music
+            .iter()
+            .map(|(id, s)| {
+                (
+                    id.clone(),
+                    MusicInfo {
+                        bpm: s.bpm,
+                        first_beat: s.first_beat,
+                        seconds: s.seconds,
+                        phrase_chords: s.phrase_chords.clone(),
+                    },
+                )
+            })
+            .collect(),
+    };
+    let json = serde_json::to_vec_pretty(&report).map_err(|e| Error::msg(e.to_string()))?;
+    atomic_write(&dir.join("synth.json"), &json)?;
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dataset::Dataset;
+    use crate::names::SequenceName;
+
+    #[test]
+    fn names_follow_aist_rules() {
+        let plan = plan_names(120).unwrap();
+        let test = &plan[&Split::Test];
+        let val = &plan[&Split::Val];
+        let train = &plan[&Split::Train];
+        assert_eq!(test.len(), 20);
+        assert_eq!(val.len(), 20);
+        assert_eq!(train.len(), 80);
+        let mut all: Vec<&String> = plan.values().flatten().collect();
+        let n = all.len();
+        all.sort();
+        all.dedup();
+        assert_eq!(all.len(), n, "names are unique");
+        for t in test {
+            let p = SequenceName::parse(t).unwrap();
+            assert_eq!(p.situation, "sBM");
+            assert_eq!(p.choreo, 2);
+            assert!(TEST_MUSIC.contains(&p.music_id.as_str()));
+        }
+        for v in val {
+            assert!(test.contains(&v.replace("_ch01", "_ch02")));
+        }
+        for t in train {
+            let p = SequenceName::parse(t).unwrap();
+            assert!(!TEST_MUSIC.contains(&p.music_id.as_str()), "{t}");
+        }
+        assert!(plan_names(2).is_err());
+        // Large requests stay unique too.
+        let big = plan_names(1000).unwrap();
+        let mut all: Vec<&String> = big.values().flatten().collect();
+        all.sort();
+        all.dedup();
+        assert_eq!(all.len(), 1000);
+    }
+
+    #[test]
+    fn generate_small_dataset_deterministically() {
+        let root = tempfile::tempdir().unwrap();
+        let opts = SynthOptions {
+            sequences: 12,
+            seconds: 5.0,
+            seed: 11,
+            sample_rate: 8000,
+        };
+        let a = root.path().join("a");
+        let b = root.path().join("b");
+        generate(&a, &opts).unwrap();
+        generate(&b, &opts).unwrap();
+        let ds = Dataset::open(&a).unwrap();
+        let summary = ds.summary().unwrap();
+        assert_eq!(summary.motion_files, 12);
+        for s in &summary.splits {
+            assert!(
+                s.missing_motions.is_empty() && s.missing_music.is_empty(),
+                "{s:?}"
+            );
+        }
+        for name in ds.all_sequences().unwrap() {
+            let pa = std::fs::read(ds.motion_path(&name)).unwrap();
+            let pb = std::fs::read(b.join("motions").join(format!("{name}.pkl"))).unwrap();
+            assert_eq!(pa, pb, "{name} differs between runs");
+            let m = crate::motion::Motion::read_pkl(&ds.motion_path(&name)).unwrap();
+            assert!(m.frames >= 255 && m.frames <= 300);
+            assert!(m.scaling > 80.0);
+        }
+        // Existing non-empty output is refused and left alone.
+        assert!(generate(&a, &opts).is_err());
+        assert!(a.join("synth.json").is_file());
+    }
+}
