@@ -5,6 +5,7 @@ pub mod dataset;
 pub mod error;
 pub mod fk;
 pub mod fsutil;
+pub mod inspect;
 pub mod motion;
 pub mod names;
 pub mod npy;

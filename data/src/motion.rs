@@ -78,7 +78,7 @@ impl Motion {
         trans: Vec<f64>,
         scaling: f64,
     ) -> std::result::Result<Self, String> {
-        if trans.len() % 3 != 0 || poses.len() % 72 != 0 {
+        if !trans.len().is_multiple_of(3) || !poses.len().is_multiple_of(72) {
             return Err("poses must be N×72 and trans N×3".into());
         }
         let frames = trans.len() / 3;
@@ -142,11 +142,7 @@ impl Motion {
         };
         let poses = arr("smpl_poses")?;
         let trans = arr("smpl_trans")?;
-        let ok_pose_shape = match poses.shape.as_slice() {
-            [_, 72] => true,
-            [_, 24, 3] => true,
-            _ => false,
-        };
+        let ok_pose_shape = matches!(poses.shape.as_slice(), [_, 72] | [_, 24, 3]);
         if !ok_pose_shape {
             return Err(Error::at(
                 path,
@@ -289,7 +285,7 @@ impl Motion {
     /// (SPEC §3.2) and converted to axis-angle; scaling is 1.
     pub fn from_layout(data: &[f32], layout: Layout) -> std::result::Result<Motion, String> {
         let d = layout.dim();
-        if data.is_empty() || data.len() % d != 0 {
+        if data.is_empty() || !data.len().is_multiple_of(d) {
             return Err(format!("expected frames × {d} values, got {}", data.len()));
         }
         let frames = data.len() / d;

@@ -643,7 +643,7 @@ impl<'a> Vm<'a> {
 }
 
 fn pairs(items: Vec<Value>) -> std::result::Result<Vec<(Value, Value)>, String> {
-    if items.len() % 2 != 0 {
+    if !items.len().is_multiple_of(2) {
         return Err("odd number of items for a dict".into());
     }
     let mut out = Vec::with_capacity(items.len() / 2);
@@ -938,18 +938,18 @@ pub fn dumps_dict(items: &[(&str, &[usize], ArrayRef<'_>)], ints: &[(&str, i64)]
         put_int(&mut out, -1);
         put_int(&mut out, -1);
         put_int(&mut out, 0);
-        out.extend_from_slice(&[b't', b'b']);
+        out.extend_from_slice(b"tb");
         out.push(0x89); // is_fortran = False
         out.push(b'B');
         out.extend_from_slice(&(bytes.len() as u32).to_le_bytes());
         out.extend_from_slice(&bytes);
-        out.extend_from_slice(&[b't', b'b']);
+        out.extend_from_slice(b"tb");
     }
     for (key, v) in ints {
         put_str(&mut out, key);
         put_int(&mut out, *v);
     }
-    out.extend_from_slice(&[b'u', b'.']);
+    out.extend_from_slice(b"u.");
     out
 }
 

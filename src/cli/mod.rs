@@ -2,10 +2,19 @@
 
 use clap::{Parser, Subcommand};
 
+mod data_cmds;
+
 #[derive(Parser, Debug)]
-#[command(name = "qean", version, about = "Music-conditioned 3D dance generation: FACT and QEAN", long_about = None)]
+#[command(
+    name = "qean",
+    version,
+    about = "Music-conditioned 3D dance generation: FACT and QEAN, AIST++ data, librosa-exact features, metrics",
+    long_about = "Music-conditioned 3D dance generation: FACT (Li et al., ICCV 2021) and QEAN (Zhou et al.), \
+with AIST++ data handling, librosa-0.8.1-exact music features and the standard AIST++ metrics.\n\n\
+Start with `qean synth --out synth` to make a small AIST++-format dataset, then `qean inspect synth`."
+)]
 pub struct Cli {
-    /// More log output (-v info, -vv debug). Logs go to stderr.
+    /// More log output (-v info, -vv debug). Logs go to stderr; QEAN_LOG=... overrides.
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
     pub verbose: u8,
     #[command(subcommand)]
@@ -13,7 +22,11 @@ pub struct Cli {
 }
 
 #[derive(Subcommand, Debug)]
-pub enum Command {}
+pub enum Command {
+    Synth(data_cmds::SynthArgs),
+    Inspect(data_cmds::InspectArgs),
+    Joints(data_cmds::JointsArgs),
+}
 
 pub fn init_logging(verbose: u8) {
     let level = match verbose {
@@ -31,5 +44,9 @@ pub fn init_logging(verbose: u8) {
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {}
+    match cli.command {
+        Command::Synth(a) => data_cmds::synth(a),
+        Command::Inspect(a) => data_cmds::inspect(a),
+        Command::Joints(a) => data_cmds::joints(a),
+    }
 }

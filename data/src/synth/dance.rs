@@ -318,8 +318,8 @@ pub fn generate(grid: &BeatGrid, style: &DanceStyle, frames: usize) -> Motion {
     for j in [
         SPINE1, SPINE2, NECK, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW,
     ] {
-        for a in 0..3 {
-            base[j][a] += rng.random_range(-4.0..4.0);
+        for v in base[j].iter_mut() {
+            *v += rng.random_range(-4.0..4.0);
         }
     }
     // Low-frequency wobble (two sines per degree of freedom of the upper body), a few degrees.

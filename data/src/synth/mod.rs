@@ -121,8 +121,9 @@ pub fn plan_names(n: usize) -> Result<BTreeMap<Split, Vec<String>>> {
         let g = i % 10;
         let test_k = TEST_MUSIC[g].as_bytes()[3] - b'0';
         let ks: Vec<u8> = (0..6).filter(|&k| k != test_k).collect();
-        let k = ks[(i / 10) % 5];
-        let d = DANCERS[g][(i / 50) % 3];
+        // Several dancers share each track before the next track of the genre is used.
+        let d = DANCERS[g][(i / 10) % 3];
+        let k = ks[(i / 30) % 5];
         let round = i / 150;
         // Basic dances first, then advanced ones, as choreographies run out.
         let (sit, ch) = if round % 2 == 0 {

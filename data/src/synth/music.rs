@@ -110,7 +110,7 @@ pub fn render(spec: &MusicSpec, sample_rate: u32, rng: &mut ChaCha8Rng) -> Vec<f
                 &[0.0, 0.5],
             ),
             Groove::Swing => (
-                if in_bar % 2 == 0 { &[0] } else { &[] },
+                if in_bar.is_multiple_of(2) { &[0] } else { &[] },
                 in_bar % 2 == 1,
                 &[0.0, 2.0 / 3.0],
             ),

@@ -1,0 +1,97 @@
+//! `qean synth`, `qean inspect`, `qean joints`: the data-layer commands.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use qean_data::{synth, FkRoot, Motion};
+
+/// Make a synthetic dataset in the AIST++ layout: procedural music per music ID (WAV) and procedural dances
+/// phase-locked to it (motion pickles), with train/val/test split lists following the AIST++ naming rules.
+/// Deterministic for a given seed.
+#[derive(Args, Debug)]
+pub struct SynthArgs {
+    /// Output directory (must not exist, or be empty). Written atomically.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Total number of sequences; about 1/6 each go to val and test.
+    #[arg(long, default_value_t = 60)]
+    pub sequences: usize,
+    /// Length of each sequence in seconds (each varies between 85% and 100% of it).
+    #[arg(long, default_value_t = 16.0)]
+    pub seconds: f64,
+    /// Random seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Sample rate of the music files (30720 Hz is the feature rate: no resampling needed).
+    #[arg(long, default_value_t = 30720)]
+    pub sample_rate: u32,
+}
+
+pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
+    let opts = synth::SynthOptions {
+        sequences: a.sequences,
+        seconds: a.seconds,
+        seed: a.seed,
+        sample_rate: a.sample_rate,
+    };
+    let report = synth::generate(&a.out, &opts)?;
+    let count = |s: &str| report.splits.get(s).map_or(0, |v| v.len());
+    println!(
+        "wrote {}: {} train, {} val, {} test sequences, {} music tracks",
+        a.out.display(),
+        count("train"),
+        count("val"),
+        count("test"),
+        report.music.len()
+    );
+    Ok(())
+}
+
+/// Summarise a motion pickle (.pkl), a .npy array, or an AIST++-layout dataset directory.
+#[derive(Args, Debug)]
+pub struct InspectArgs {
+    /// The file or directory to describe.
+    pub path: PathBuf,
+}
+
+pub fn inspect(a: InspectArgs) -> anyhow::Result<()> {
+    let summary = qean_data::inspect::inspect(&a.path)?;
+    print!("{summary}");
+    Ok(())
+}
+
+/// Forward kinematics: an AIST++ motion pickle to joint positions, a (frames, 24, 3) float32 .npy.
+#[derive(Args, Debug)]
+pub struct JointsArgs {
+    /// AIST++ motion pickle (smpl_poses, smpl_trans, smpl_scaling).
+    pub motion: PathBuf,
+    /// Output .npy path.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Root convention: `smpl` adds the SMPL-male rest pelvis (as mint and Bailando); `edge` does not.
+    #[arg(long, value_enum, default_value_t = RootArg::Smpl)]
+    pub root: RootArg,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum RootArg {
+    Smpl,
+    Edge,
+}
+
+pub fn joints(a: JointsArgs) -> anyhow::Result<()> {
+    let motion = Motion::read_pkl(&a.motion)?;
+    let root = match a.root {
+        RootArg::Smpl => FkRoot::Smpl,
+        RootArg::Edge => FkRoot::Edge,
+    };
+    let joints = motion.joints(root);
+    let flat: Vec<f32> = joints.iter().flat_map(|p| p.map(|x| x as f32)).collect();
+    qean_data::npy::write_f32(&a.out, &[motion.frames, 24, 3], &flat)?;
+    println!(
+        "wrote {}: {} frames × 24 joints",
+        a.out.display(),
+        motion.frames
+    );
+    Ok(())
+}

@@ -1,0 +1,271 @@
+//! End-to-end tests of the data commands through the real binary.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn qean() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_qean"))
+}
+
+fn shared() -> PathBuf {
+    let beside = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+    if beside.is_dir() {
+        beside
+    } else {
+        PathBuf::from("/work/shared/data")
+    }
+}
+
+fn listing(dir: &Path) -> Vec<String> {
+    let mut out = Vec::new();
+    fn walk(d: &Path, base: &Path, out: &mut Vec<String>) {
+        for e in std::fs::read_dir(d).unwrap() {
+            let p = e.unwrap().path();
+            out.push(p.strip_prefix(base).unwrap().display().to_string());
+            if p.is_dir() {
+                walk(&p, base, out);
+            }
+        }
+    }
+    walk(dir, dir, &mut out);
+    out.sort();
+    out
+}
+
+/// Runs a command that must fail: non-zero exit, exactly one line on stderr naming `needle`, no panic.
+fn assert_clean_failure(cmd: &mut Command, needle: &str) -> String {
+    let out = cmd.output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(
+        !out.status.success(),
+        "expected failure, got success: {stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "panic: {stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "expected one error line, got: {stderr}");
+    assert!(lines[0].starts_with("error: "), "{stderr}");
+    assert!(
+        stderr.contains(needle),
+        "error does not mention {needle:?}: {stderr}"
+    );
+    stderr
+}
+
+#[test]
+fn inspect_softcat_reports_127_frames() {
+    let out = qean()
+        .arg("inspect")
+        .arg(shared().join("aistpp/motions/softcat477_SMPL-to-FBX_sample.pkl"))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("frames: 127"), "{text}");
+    assert!(text.contains("smpl_poses: f8 [127, 72]"), "{text}");
+}
+
+#[test]
+fn synth_then_inspect_and_joints() {
+    let tmp = tempfile::tempdir().unwrap();
+    let ds = tmp.path().join("ds");
+    let st = qean()
+        .args([
+            "synth",
+            "--sequences",
+            "9",
+            "--seconds",
+            "4",
+            "--seed",
+            "3",
+            "--sample-rate",
+            "8000",
+            "--out",
+        ])
+        .arg(&ds)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let out = qean().arg("inspect").arg(&ds).output().unwrap();
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("motion files (not ignored): 9"), "{text}");
+    assert!(text.contains("test : 1 sequences"), "{text}");
+
+    let first = std::fs::read_dir(ds.join("motions"))
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let j = tmp.path().join("j.npy");
+    let st = qean()
+        .arg("joints")
+        .arg(&first)
+        .arg("--out")
+        .arg(&j)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let arr = qean_data::npy::read(&j).unwrap();
+    assert_eq!(arr.shape[1..], [24, 3]);
+    assert!(arr.shape[0] >= 200);
+
+    // A second synth into the same place is refused and changes nothing.
+    let before = listing(tmp.path());
+    assert_clean_failure(qean().args(["synth", "--out"]).arg(&ds), "not empty");
+    assert_eq!(before, listing(tmp.path()));
+}
+
+/// Python's pickle.load + numpy reads our files (needs python3 with numpy; CI sets QEAN_REQUIRE_PYTHON=1).
+#[test]
+fn synth_pickles_load_in_python() {
+    let have_numpy = Command::new("python3")
+        .args(["-c", "import numpy"])
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false);
+    if !have_numpy {
+        assert!(
+            std::env::var("QEAN_REQUIRE_PYTHON").is_err(),
+            "QEAN_REQUIRE_PYTHON is set but python3 with numpy is not available"
+        );
+        eprintln!("skipping: python3 with numpy not available");
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let ds = tmp.path().join("ds");
+    assert!(qean()
+        .args([
+            "synth",
+            "--sequences",
+            "3",
+            "--seconds",
+            "2",
+            "--sample-rate",
+            "8000",
+            "--out"
+        ])
+        .arg(&ds)
+        .status()
+        .unwrap()
+        .success());
+    let script = r#"
+import pickle, sys, glob, numpy as np
+files = sorted(glob.glob(sys.argv[1] + "/motions/*.pkl"))
+assert len(files) == 3, files
+for f in files:
+    d = pickle.load(open(f, "rb"))
+    p, t, s = d["smpl_poses"], d["smpl_trans"], d["smpl_scaling"]
+    assert isinstance(p, np.ndarray) and p.ndim == 2 and p.shape[1] == 72, p.shape
+    assert t.shape == (p.shape[0], 3), t.shape
+    assert s.shape == (1,), s.shape
+    assert np.isfinite(p).all() and np.isfinite(t).all()
+print("ok", len(files))
+"#;
+    let out = Command::new("python3")
+        .args(["-c", script])
+        .arg(&ds)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "python failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), "ok 3");
+}
+
+#[test]
+fn bad_inputs_fail_cleanly() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let good =
+        std::fs::read(shared().join("aistpp/motions/softcat477_sample_with_scaling.pkl")).unwrap();
+
+    let truncated = dir.join("truncated.pkl");
+    std::fs::write(&truncated, &good[..good.len() / 2]).unwrap();
+    let empty = dir.join("empty.pkl");
+    std::fs::write(&empty, b"").unwrap();
+    let garbage = dir.join("garbage.pkl");
+    std::fs::write(&garbage, b"this is not a pickle at all").unwrap();
+
+    let motion = qean_data::Motion::read_pkl(
+        &shared().join("aistpp/motions/softcat477_sample_with_scaling.pkl"),
+    )
+    .unwrap();
+    let n = motion.frames;
+    let write = |name: &str, items: &[(&str, &[usize], qean_data::pickle::ArrayRef)]| {
+        let p = dir.join(name);
+        std::fs::write(&p, qean_data::pickle::dumps_dict(items, &[])).unwrap();
+        p
+    };
+    use qean_data::pickle::ArrayRef::F64;
+    let missing = write(
+        "missing.pkl",
+        &[("smpl_poses", &[n, 72], F64(&motion.poses))],
+    );
+    let wrong_shape = write(
+        "shape.pkl",
+        &[
+            ("smpl_poses", &[n * 2, 36], F64(&motion.poses)),
+            ("smpl_trans", &[n, 3], F64(&motion.trans)),
+        ],
+    );
+    let mut nan_poses = motion.poses.clone();
+    nan_poses[100] = f64::NAN;
+    let nan = write(
+        "nan.pkl",
+        &[
+            ("smpl_poses", &[n, 72], F64(&nan_poses)),
+            ("smpl_trans", &[n, 3], F64(&motion.trans)),
+        ],
+    );
+
+    let out_npy = dir.join("out.npy");
+    let cases: Vec<(PathBuf, &str)> = vec![
+        (truncated, "truncated"),
+        (empty, "empty file"),
+        (garbage, "not a readable pickle"),
+        (missing, "missing key 'smpl_trans'"),
+        (wrong_shape, "expected (N, 72)"),
+        (nan, "non-finite"),
+        (dir.join("nope.pkl"), "no such file"),
+    ];
+    for (path, needle) in &cases {
+        let before = listing(dir);
+        let err = assert_clean_failure(
+            qean().arg("joints").arg(path).arg("--out").arg(&out_npy),
+            needle,
+        );
+        assert!(
+            err.contains(path.file_name().unwrap().to_str().unwrap()),
+            "{err}"
+        );
+        assert_eq!(before, listing(dir), "files changed for {path:?}");
+        assert_clean_failure(qean().arg("inspect").arg(path), needle);
+    }
+
+    // Dataset directories.
+    assert_clean_failure(
+        qean().arg("inspect").arg(dir.join("nodir/")),
+        "no such file",
+    );
+    let ds = dir.join("ds");
+    std::fs::create_dir_all(ds.join("motions")).unwrap();
+    std::fs::create_dir_all(ds.join("splits")).unwrap();
+    std::fs::write(ds.join("splits/crossmodal_val.txt"), "").unwrap();
+    assert_clean_failure(
+        qean().arg("inspect").arg(&ds),
+        "crossmodal_val.txt: split file is empty",
+    );
+
+    // An output directory that does not exist.
+    let good_path = shared().join("aistpp/motions/softcat477_sample_with_scaling.pkl");
+    assert_clean_failure(
+        qean()
+            .arg("joints")
+            .arg(&good_path)
+            .arg("--out")
+            .arg(dir.join("no/such/dir/j.npy")),
+        "does not exist",
+    );
+}
