@@ -16,6 +16,7 @@ pub mod synth;
 #[doc(hidden)]
 pub mod testdata;
 pub mod wav;
+pub mod windows;
 
 pub use error::{Error, Result};
 pub use fk::FkRoot;
