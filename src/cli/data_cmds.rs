@@ -95,3 +95,75 @@ pub fn joints(a: JointsArgs) -> anyhow::Result<()> {
     );
     Ok(())
 }
+
+/// Render a preview of any motion: an animated stick figure (GIF) and a contact sheet of key frames (PNG) with
+/// the music's beats marked when known.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Motion file: AIST++ .pkl, .npy of joints (frames, 24, 3) or of model vectors (frames, 225|219), or .bvh.
+    pub motion: PathBuf,
+    /// Output: FILE.png or FILE.gif (the other is written next to it), or a stem to which both are added.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Music beats to mark: a 35-D feature .npy (column 34, aligned with the motion's frames).
+    #[arg(long)]
+    pub features: Option<PathBuf>,
+    /// Frames at the start to label as seed (e.g. 120 for generated dances).
+    #[arg(long, default_value_t = 0)]
+    pub seed_frames: usize,
+    /// Root convention for forward kinematics of .pkl/.npy vectors.
+    #[arg(long, value_enum, default_value_t = RootArg::Smpl)]
+    pub root: RootArg,
+}
+
+impl RootArg {
+    fn fk(self) -> FkRoot {
+        match self {
+            RootArg::Smpl => FkRoot::Smpl,
+            RootArg::Edge => FkRoot::Edge,
+        }
+    }
+}
+
+/// `x.png` → (x.png, x.gif); `x.gif` → (x.png, x.gif); `x` → (x.png, x.gif).
+fn preview_paths(out: &std::path::Path) -> (PathBuf, PathBuf) {
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let stem = match ext.as_deref() {
+        Some("png") | Some("gif") => out.with_extension(""),
+        _ => out.to_path_buf(),
+    };
+    let add = |e: &str| {
+        let mut s = stem.clone().into_os_string();
+        s.push(".");
+        s.push(e);
+        PathBuf::from(s)
+    };
+    (add("png"), add("gif"))
+}
+
+pub fn render(a: RenderArgs) -> anyhow::Result<()> {
+    let joints = qean_data::joints_file::load_joints(&a.motion, a.root.fk())?;
+    let beats = match &a.features {
+        Some(f) => Some(qean_data::render::beats_from_features(f)?),
+        None => None,
+    };
+    let title = a
+        .motion
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let preview = qean_data::render::Preview {
+        title,
+        joints: &joints,
+        fps: qean_data::motion::FPS,
+        beats: beats.as_deref(),
+        seed_frames: a.seed_frames,
+    };
+    let (png, gif) = preview_paths(&a.out);
+    qean_data::render::write_preview(&preview, &png, &gif)?;
+    println!("wrote {} and {}", png.display(), gif.display());
+    Ok(())
+}

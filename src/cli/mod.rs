@@ -26,6 +26,7 @@ pub enum Command {
     Synth(data_cmds::SynthArgs),
     Inspect(data_cmds::InspectArgs),
     Joints(data_cmds::JointsArgs),
+    Render(data_cmds::RenderArgs),
 }
 
 pub fn init_logging(verbose: u8) {
@@ -48,5 +49,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Synth(a) => data_cmds::synth(a),
         Command::Inspect(a) => data_cmds::inspect(a),
         Command::Joints(a) => data_cmds::joints(a),
+        Command::Render(a) => data_cmds::render(a),
     }
 }
