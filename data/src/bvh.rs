@@ -35,8 +35,8 @@ fn end_site(j: usize) -> [f64; 3] {
 pub fn hierarchy_order() -> Vec<usize> {
     fn visit(j: usize, out: &mut Vec<usize>) {
         out.push(j);
-        for c in 0..NUM_JOINTS {
-            if PARENTS[c] == j as i32 {
+        for (c, &p) in PARENTS.iter().enumerate() {
+            if p == j as i32 {
                 visit(c, out);
             }
         }
@@ -108,8 +108,7 @@ pub fn to_bvh(motion: &Motion, root: FkRoot) -> String {
         1.0 / FPS
     );
     let roots = motion.root_positions();
-    for t in 0..motion.frames {
-        let p = roots[t];
+    for (t, p) in roots.iter().enumerate() {
         let mut line = format!(
             "{:.5} {:.5} {:.5}",
             (p[0] + shift[0]) * CM,
