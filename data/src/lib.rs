@@ -4,6 +4,7 @@
 pub mod bvh;
 pub mod dataset;
 pub mod error;
+pub mod feature_cache;
 pub mod fk;
 pub mod fsutil;
 pub mod inspect;
