@@ -5,6 +5,7 @@ pub mod autoregress;
 pub mod bvh;
 pub mod dataset;
 pub mod error;
+pub mod export;
 pub mod feature_cache;
 pub mod fk;
 pub mod fsutil;
