@@ -269,3 +269,55 @@ fn bad_inputs_fail_cleanly() {
         "does not exist",
     );
 }
+
+/// An independent BVH reader (the `bvh` package from PyPI) parses our export with the right joints and frames.
+#[test]
+fn bvh_export_parses_in_python() {
+    let have = Command::new("python3")
+        .args(["-c", "import bvh"])
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false);
+    if !have {
+        assert!(
+            std::env::var("QEAN_REQUIRE_PYTHON").is_err(),
+            "QEAN_REQUIRE_PYTHON is set but the python package bvh is not available"
+        );
+        eprintln!("skipping: python package bvh not available");
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("m.bvh");
+    let st = qean()
+        .arg("convert")
+        .arg(shared().join("aistpp/motions/softcat477_SMPL-to-FBX_sample.pkl"))
+        .arg("--out")
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let script = r#"
+import sys
+from bvh import Bvh
+m = Bvh(open(sys.argv[1]).read())
+names = m.get_joints_names()
+assert len(names) == 24, names
+assert names[0] == "pelvis" and "left_wrist" in names, names
+assert m.nframes == 127, m.nframes
+assert abs(m.frame_time - 1/60) < 1e-6, m.frame_time
+assert m.joint_channels("pelvis")[:3] == ["Xposition", "Yposition", "Zposition"]
+v = m.frame_joint_channel(126, "left_elbow", "Yrotation")
+print("ok", len(names), m.nframes)
+"#;
+    let o = Command::new("python3")
+        .args(["-c", script])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "python failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert_eq!(String::from_utf8_lossy(&o.stdout).trim(), "ok 24 127");
+}

@@ -316,6 +316,40 @@ impl Motion {
     }
 }
 
+/// Read a motion from an AIST++ pickle or a `.npy` of model vectors (frames, 225 | 219).
+pub fn read_motion(path: &Path) -> Result<Motion> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    match ext.as_str() {
+        "pkl" | "pickle" => Motion::read_pkl(path),
+        "npy" => {
+            let a = crate::npy::read(path)?;
+            let layout = match a.shape.as_slice() {
+                [_, d] => Layout::from_dim(*d),
+                _ => None,
+            }
+            .ok_or_else(|| {
+                Error::at(
+                    path,
+                    format!(
+                        "array of shape {:?} is not a motion in a model layout (frames, 225|219)",
+                        a.shape
+                    ),
+                )
+            })?;
+            let v: Vec<f32> = a.data.iter().map(|&x| x as f32).collect();
+            Motion::from_layout(&v, layout).map_err(|m| Error::at(path, m))
+        }
+        _ => Err(Error::at(
+            path,
+            "unknown motion format (expected .pkl or .npy)",
+        )),
+    }
+}
+
 /// Per-axis minimum and maximum of joint positions (frames × 24), for summaries.
 pub fn joint_ranges(joints: &[[f64; 3]]) -> [[f64; 2]; 3] {
     let mut r = [[f64::INFINITY, f64::NEG_INFINITY]; 3];

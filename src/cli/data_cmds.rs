@@ -167,3 +167,44 @@ pub fn render(a: RenderArgs) -> anyhow::Result<()> {
     println!("wrote {} and {}", png.display(), gif.display());
     Ok(())
 }
+
+/// Convert a motion between formats: an AIST++ .pkl or a .npy of model vectors (frames, 225|219) to .bvh (SMPL
+/// skeleton, 60 fps, centimetres), .npy (joint positions, frames × 24 × 3) or .pkl (AIST++ format).
+#[derive(Args, Debug)]
+pub struct ConvertArgs {
+    /// Input motion: .pkl (AIST++) or .npy (frames, 225|219).
+    pub motion: PathBuf,
+    /// Output file; the format follows the extension (.bvh, .npy, .pkl).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Root convention for joint positions and the BVH root channel.
+    #[arg(long, value_enum, default_value_t = RootArg::Smpl)]
+    pub root: RootArg,
+}
+
+pub fn convert(a: ConvertArgs) -> anyhow::Result<()> {
+    let motion = qean_data::motion::read_motion(&a.motion)?;
+    let ext = a
+        .out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("bvh") => qean_data::bvh::write(&a.out, &motion, a.root.fk())?,
+        Some("npy") => {
+            let flat: Vec<f32> = motion
+                .joints(a.root.fk())
+                .iter()
+                .flat_map(|p| p.map(|x| x as f32))
+                .collect();
+            qean_data::npy::write_f32(&a.out, &[motion.frames, 24, 3], &flat)?
+        }
+        Some("pkl") => motion.write_pkl(&a.out, qean_data::motion::Precision::F64)?,
+        _ => anyhow::bail!(
+            "{}: unknown output format (use .bvh, .npy or .pkl)",
+            a.out.display()
+        ),
+    }
+    println!("wrote {} ({} frames)", a.out.display(), motion.frames);
+    Ok(())
+}

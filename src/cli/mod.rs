@@ -27,6 +27,7 @@ pub enum Command {
     Inspect(data_cmds::InspectArgs),
     Joints(data_cmds::JointsArgs),
     Render(data_cmds::RenderArgs),
+    Convert(data_cmds::ConvertArgs),
 }
 
 pub fn init_logging(verbose: u8) {
@@ -50,5 +51,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Inspect(a) => data_cmds::inspect(a),
         Command::Joints(a) => data_cmds::joints(a),
         Command::Render(a) => data_cmds::render(a),
+        Command::Convert(a) => data_cmds::convert(a),
     }
 }
