@@ -1,0 +1,77 @@
+//! Kinetic features, 72-D (SPEC §7.2), after aist-api/Bailando `features/kinetic.py` and the helpers in
+//! `features/utils.py`: per joint, the mean horizontal and vertical kinetic energy of the windowed
+//! velocity and the mean energy expenditure |windowed acceleration|, over frames 1..T−1.
+
+use crate::config::MetricsMode;
+use crate::error::{Error, Result};
+use crate::positions::{Frame, N_JOINTS};
+
+pub const KINETIC_DIM: usize = 3 * N_JOINTS;
+/// `KineticFeatures(frame_time=1./60)`: AIST++ is 60 FPS.
+pub const FRAME_TIME: f64 = 1.0 / 60.0;
+/// `sliding_window=2`: frames i−2..=i+2.
+const WINDOW: isize = 2;
+/// Fewer frames leave some window empty, where the reference divides by zero.
+pub const MIN_FRAMES: usize = 4;
+
+/// [KE_h, KE_v, EE] for each of the 24 joints, joint-major.
+#[allow(clippy::needless_range_loop)] // j indexes the inner joint axis, as the reference loops do
+pub fn kinetic_features(joints: &[Frame], mode: MetricsMode) -> Result<Vec<f64>> {
+    let t = joints.len();
+    if t < MIN_FRAMES {
+        return Err(Error::Invalid(format!(
+            "kinetic features need at least {MIN_FRAMES} frames, got {t}"
+        )));
+    }
+    let dt = FRAME_TIME;
+    let mut out = Vec::with_capacity(KINETIC_DIM);
+    for j in 0..N_JOINTS {
+        let p = |k: usize| joints[k][j];
+        let (mut ke_h, mut ke_v, mut ee) = (0.0, 0.0, 0.0);
+        for i in 1..t {
+            // calc_average_velocity_*: sum of p[k] − p[k−1] over k = i + w with k − 1 ≥ 0, k < T.
+            let mut vel = [0.0; 3];
+            let mut n_vel = 0usize;
+            // calc_average_acceleration: k − 1 ≥ 0 and k + 1 < T.
+            let mut acc = [0.0; 3];
+            let mut n_acc = 0usize;
+            for w in -WINDOW..=WINDOW {
+                let k = i as isize + w;
+                if k < 1 || k >= t as isize {
+                    continue;
+                }
+                let k = k as usize;
+                let (pk, pm) = (p(k), p(k - 1));
+                for a in 0..3 {
+                    vel[a] += pk[a] - pm[a];
+                }
+                n_vel += 1;
+                if k + 1 < t {
+                    let pp = p(k + 1);
+                    for a in 0..3 {
+                        let v2 = (pp[a] - pk[a]) / dt;
+                        let v1 = match mode {
+                            // `positions[k] - positions[k-1] / frame_time`: the precedence bug
+                            // (Bailando issue #46, mint issue #62).
+                            MetricsMode::Reference => pk[a] - pm[a] / dt,
+                            MetricsMode::Corrected => (pk[a] - pm[a]) / dt,
+                        };
+                        acc[a] += (v2 - v1) / dt;
+                    }
+                    n_acc += 1;
+                }
+            }
+            let scale = n_vel as f64 * dt;
+            let (vx, vy, vz) = (vel[0] / scale, vel[1] / scale, vel[2] / scale);
+            ke_h += vx * vx + vz * vz;
+            ke_v += vy * vy;
+            if n_acc > 0 {
+                let n = n_acc as f64;
+                ee += ((acc[0] / n).powi(2) + (acc[1] / n).powi(2) + (acc[2] / n).powi(2)).sqrt();
+            }
+        }
+        let denom = (t - 1) as f64;
+        out.extend_from_slice(&[ke_h / denom, ke_v / denom, ee / denom]);
+    }
+    Ok(out)
+}
