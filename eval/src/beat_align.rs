@@ -162,9 +162,9 @@ pub fn score_generated(
     music_beats: &[usize],
     segment: BaSegment,
 ) -> BeatScores {
-    let all = &joints[..seed + len];
+    let all = &joints[..(seed + len).min(joints.len())];
     let from = match segment {
-        BaSegment::Generated => seed,
+        BaSegment::Generated => seed.min(all.len()),
         BaSegment::Full => 0,
     };
     let (db, vlen) = motion_beats_bailando(&all[from..]);
