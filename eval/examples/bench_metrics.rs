@@ -104,4 +104,26 @@ fn main() {
         "median {:.0} ms over {repeats} runs",
         times[times.len() / 2]
     );
+
+    // Where the time goes, single-threaded, over the reference set.
+    let t0 = Instant::now();
+    for s in &reference {
+        qean_eval::kinetic::kinetic_features(&s.joints, cfg.metrics_mode).expect("kinetic");
+    }
+    let k = t0.elapsed().as_secs_f64() * 1e3;
+    let t0 = Instant::now();
+    for s in &reference {
+        qean_eval::geometric::geometric_features(&s.joints, cfg.geometric, cfg.metrics_mode)
+            .expect("geometric");
+    }
+    let g = t0.elapsed().as_secs_f64() * 1e3;
+    let music = beats("").expect("beats");
+    let t0 = Instant::now();
+    for s in &reference {
+        qean_eval::beat_align::score_ground_truth(&s.joints, &music);
+    }
+    let b = t0.elapsed().as_secs_f64() * 1e3;
+    println!(
+        "1 thread, reference set only: kinetic {k:.0} ms, geometric {g:.0} ms, BeatAlign {b:.0} ms"
+    );
 }

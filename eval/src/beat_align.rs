@@ -48,10 +48,15 @@ pub fn gaussian_filter1d(x: &[f64], sigma: f64) -> Vec<f64> {
     };
     (0..n as isize)
         .map(|i| {
-            w.iter()
-                .zip(-radius..=radius)
-                .map(|(wu, u)| wu * x[reflect(i + u)])
-                .sum()
+            if i >= radius && i + radius < n as isize {
+                let window = &x[(i - radius) as usize..=(i + radius) as usize];
+                w.iter().zip(window).map(|(wu, xu)| wu * xu).sum()
+            } else {
+                w.iter()
+                    .zip(-radius..=radius)
+                    .map(|(wu, u)| wu * x[reflect(i + u)])
+                    .sum()
+            }
         })
         .collect()
 }

@@ -10,7 +10,7 @@ pub const KINETIC_DIM: usize = 3 * N_JOINTS;
 /// `KineticFeatures(frame_time=1./60)`: AIST++ is 60 FPS.
 pub const FRAME_TIME: f64 = 1.0 / 60.0;
 /// `sliding_window=2`: frames i−2..=i+2.
-const WINDOW: isize = 2;
+const WINDOW: usize = 2;
 /// Fewer frames leave some window empty, where the reference divides by zero.
 pub const MIN_FRAMES: usize = 4;
 
@@ -25,49 +25,56 @@ pub fn kinetic_features(joints: &[Frame], mode: MetricsMode) -> Result<Vec<f64>>
     }
     let dt = FRAME_TIME;
     let mut out = Vec::with_capacity(KINETIC_DIM);
+    // Per joint, the window terms once per k (the reference recomputes them for each i):
+    // d[k] = p[k] − p[k−1] (k ≥ 1) and the acceleration a[k] (1 ≤ k ≤ T−2).
+    let mut d = vec![[0.0; 3]; t];
+    let mut acc = vec![[0.0; 3]; t];
     for j in 0..N_JOINTS {
-        let p = |k: usize| joints[k][j];
-        let (mut ke_h, mut ke_v, mut ee) = (0.0, 0.0, 0.0);
-        for i in 1..t {
-            // calc_average_velocity_*: sum of p[k] − p[k−1] over k = i + w with k − 1 ≥ 0, k < T.
-            let mut vel = [0.0; 3];
-            let mut n_vel = 0usize;
-            // calc_average_acceleration: k − 1 ≥ 0 and k + 1 < T.
-            let mut acc = [0.0; 3];
-            let mut n_acc = 0usize;
-            for w in -WINDOW..=WINDOW {
-                let k = i as isize + w;
-                if k < 1 || k >= t as isize {
-                    continue;
-                }
-                let k = k as usize;
-                let (pk, pm) = (p(k), p(k - 1));
+        for k in 1..t {
+            let (pk, pm) = (joints[k][j], joints[k - 1][j]);
+            for a in 0..3 {
+                d[k][a] = pk[a] - pm[a];
+            }
+            if k + 1 < t {
+                let pp = joints[k + 1][j];
                 for a in 0..3 {
-                    vel[a] += pk[a] - pm[a];
-                }
-                n_vel += 1;
-                if k + 1 < t {
-                    let pp = p(k + 1);
-                    for a in 0..3 {
-                        let v2 = (pp[a] - pk[a]) / dt;
-                        let v1 = match mode {
-                            // `positions[k] - positions[k-1] / frame_time`: the precedence bug
-                            // (Bailando issue #46, mint issue #62).
-                            MetricsMode::Reference => pk[a] - pm[a] / dt,
-                            MetricsMode::Corrected => (pk[a] - pm[a]) / dt,
-                        };
-                        acc[a] += (v2 - v1) / dt;
-                    }
-                    n_acc += 1;
+                    let v2 = (pp[a] - pk[a]) / dt;
+                    let v1 = match mode {
+                        // `positions[k] - positions[k-1] / frame_time`: the precedence bug
+                        // (Bailando issue #46, mint issue #62).
+                        MetricsMode::Reference => pk[a] - pm[a] / dt,
+                        MetricsMode::Corrected => (pk[a] - pm[a]) / dt,
+                    };
+                    acc[k][a] = (v2 - v1) / dt;
                 }
             }
-            let scale = n_vel as f64 * dt;
+        }
+        let (mut ke_h, mut ke_v, mut ee) = (0.0, 0.0, 0.0);
+        for i in 1..t {
+            // Window k = i−2..=i+2: velocity terms need k − 1 ≥ 0 and k < T
+            // (calc_average_velocity_*), acceleration terms also k + 1 < T.
+            let lo = i.saturating_sub(WINDOW).max(1);
+            let hi_v = (i + WINDOW).min(t - 1);
+            let hi_a = (i + WINDOW).min(t - 2);
+            let mut vel = [0.0; 3];
+            for dk in &d[lo..=hi_v] {
+                for a in 0..3 {
+                    vel[a] += dk[a];
+                }
+            }
+            let scale = (hi_v + 1 - lo) as f64 * dt;
             let (vx, vy, vz) = (vel[0] / scale, vel[1] / scale, vel[2] / scale);
             ke_h += vx * vx + vz * vz;
             ke_v += vy * vy;
-            if n_acc > 0 {
-                let n = n_acc as f64;
-                ee += ((acc[0] / n).powi(2) + (acc[1] / n).powi(2) + (acc[2] / n).powi(2)).sqrt();
+            if hi_a >= lo {
+                let mut s = [0.0; 3];
+                for ak in &acc[lo..=hi_a] {
+                    for a in 0..3 {
+                        s[a] += ak[a];
+                    }
+                }
+                let n = (hi_a + 1 - lo) as f64;
+                ee += ((s[0] / n).powi(2) + (s[1] / n).powi(2) + (s[2] / n).powi(2)).sqrt();
             }
         }
         let denom = (t - 1) as f64;
