@@ -18,6 +18,10 @@ Usage (venv outside the repo with numpy + scipy):
     cargo build --release -p qean-eval -j 2
     /work/venv-eval/bin/python tools/crosscheck_metrics.py [--out /tmp/qean-crosscheck] [--shared DIR]
 Exit status 1 if any metric differs by more than --tol (default 0.5 %).
+
+    /work/venv-eval/bin/python tools/crosscheck_metrics.py --write-fixture eval/tests/fixtures/reference_metrics.json
+regenerates the small committed fixture that `eval/tests/parity.rs` checks in CI (features, BeatAlign and
+FID of the real excerpt computed by the formulas below).
 """
 
 import argparse
@@ -373,6 +377,48 @@ def reference_metrics(gens, refs, beats, cfg):
     return out, (imk, img)
 
 
+# ----------------------------------------------------------------------------- committed fixture
+
+def write_fixture(shared, path):
+    sample = json.loads((shared / "data/aistpp/motions/softcat477_sample.json").read_text())
+    skeleton = json.loads((shared / "data/skeleton/smpl_skeleton_edge.json").read_text())
+    poses = np.array(sample["smpl_poses"])
+    trans = np.array(sample["smpl_trans"]) / np.array(sample["smpl_scaling"])[0]
+    x = forward_kinematics(poses, trans, skeleton)
+    music = [5, 25, 47, 70, 91, 110, 126]
+    seed = 30
+    zs = x - x[:1, :1]
+    track = onehot(music, 200)
+    exp = {
+        "kinetic_reference_zero_start": kinetic_features(zs, True).tolist(),
+        "kinetic_corrected_zero_start": kinetic_features(zs, False).tolist(),
+        "kinetic_reference_absolute": kinetic_features(x, True).tolist(),
+        "geometric_manual_new_reference": manual_features(zs, False, 1 / 120).tolist(),
+        "geometric_manual_new_corrected": manual_features(zs, False, 1 / 60).tolist(),
+        "geometric_legacy_reference": manual_features(zs, True, 1 / 120).tolist(),
+        "gt_ba_bailando": ba_bailando(x, track),
+        "gt_ba_mint": ba_mint(track[:len(x)], motion_peak_onehot(x)),
+        "gen_ba_bailando": ba_bailando(x[seed:], track[seed:]),
+        "gen_ba_mint": ba_mint(track[seed:], motion_peak_onehot(x)[seed:]),
+    }
+    rng = np.random.default_rng(5)
+    a = rng.normal(0, 1, (12, 5)) * [1, 2, 0.5, 1, 3]
+    b = rng.normal(0.3, 1, (30, 5)) @ rng.normal(0, 1, (5, 5))
+    exp["fid_scipy"] = calc_fid(a, b)[0]
+    fixture = {
+        "source": "softcat477_sample.json through SPEC 3.3 FK (smpl root); values from tools/crosscheck_metrics.py "
+                  "(numpy/scipy reimplementation of Bailando/mint metric code); float32 as the reference stores them",
+        "music_beats": music,
+        "seed_frames": seed,
+        "fid_a": a.tolist(),
+        "fid_b": b.tolist(),
+        "expected": {k: (float(v) if np.isscalar(v) else v) for k, v in exp.items()},
+    }
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(fixture, indent=1) + "\n")
+    print(f"wrote {path}")
+
+
 # ----------------------------------------------------------------------------- main
 
 def main():
@@ -382,11 +428,15 @@ def main():
     ap.add_argument("--bin", type=Path, default=REPO / "target/release/qean-eval")
     ap.add_argument("--tol", type=float, default=0.005)
     ap.add_argument("--seed", type=int, default=20261123)
+    ap.add_argument("--write-fixture", type=Path, help="write the committed parity fixture here and exit")
     args = ap.parse_args()
     # scipy >= 1.16 deprecates sqrtm's `disp`, which the reference passes; the call is kept as written.
     warnings.filterwarnings("ignore", category=DeprecationWarning)
     if not (args.shared / "data").exists():
         args.shared = Path("/work/shared")
+    if args.write_fixture:
+        write_fixture(args.shared, args.write_fixture)
+        return
     rng = np.random.default_rng(args.seed)
     gens, refs, beats = build_inputs(args.shared, args.out, rng)
     print(f"inputs: {len(gens)} generated (seed {SEED} + 200..700 frames), {len(refs)} reference "
