@@ -456,7 +456,7 @@ def main():
         for k, v in cfg.items():
             cmd += ["--" + k.replace("_", "-"), v]
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-        ours = json.loads(out_json.read_text())
+        (ours,) = json.loads(out_json.read_text())["reports"]
         print(f"\n{', '.join(f'{k}={v}' for k, v in cfg.items())}  "
               f"(scipy sqrtm imaginary trace: FID_k {imag[0]:.2e}, FID_g {imag[1]:.2e})")
         print(f"{'metric':<24}{'numpy reference':>18}{'qean-eval':>18}{'rel. error':>12}")

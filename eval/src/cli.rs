@@ -5,8 +5,11 @@ use std::path::PathBuf;
 use anyhow::{bail, Context};
 use clap::Parser;
 
+use serde::{Deserialize, Serialize};
+
 use crate::config::{
-    BaSegment, BaVariant, EvalConfig, GeometricVariant, MetricsMode, MusicBeatSource, PositionMode,
+    value_name, BaSegment, BaVariant, EvalConfig, GeometricVariant, MetricsMode, MusicBeatSource,
+    PositionMode,
 };
 use crate::io::{load_joints_dir, read_beats_json, write_json_atomic};
 use crate::protocol::evaluate;
@@ -39,9 +42,16 @@ pub struct Args {
     /// Frames BeatAlign scores: the generated ones, or seed and generated.
     #[arg(long, value_enum, default_value_t = BaSegment::Generated)]
     pub ba_segment: BaSegment,
-    /// reference = the reference code's bugs (acceleration precedence, τ = 1/120); corrected = fixed.
-    #[arg(long, value_enum, default_value_t = MetricsMode::Reference)]
-    pub metrics_mode: MetricsMode,
+    /// Metric modes to compute, comma-separated: reference = the reference code's bugs (acceleration
+    /// precedence, τ = 1/120), comparable with published tables; corrected = both fixed. The report
+    /// holds one entry per mode (SPEC §7.6 keeps both).
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "reference,corrected"
+    )]
+    pub metrics_mode: Vec<MetricsMode>,
     /// zero_start = Bailando (subtract the first root position); mint_absolute = mint.
     #[arg(long, value_enum, default_value_t = PositionMode::ZeroStart)]
     pub positions: PositionMode,
@@ -69,23 +79,33 @@ pub struct Args {
 }
 
 impl Args {
-    pub fn config(&self) -> EvalConfig {
-        EvalConfig {
-            metrics_mode: self.metrics_mode,
-            positions: self.positions,
-            geometric: self.geometric,
-            ba_variant: self.ba_variant,
-            ba_music_beats: self.ba_music_beats,
-            ba_segment: self.ba_segment,
-            seed_frames: self.seed_frames,
-            max_frames: self.max_frames,
-            music_offset: self.music_offset,
-        }
+    /// The configuration of each requested metrics mode.
+    pub fn configs(&self) -> Vec<EvalConfig> {
+        self.metrics_mode
+            .iter()
+            .map(|&metrics_mode| EvalConfig {
+                metrics_mode,
+                positions: self.positions,
+                geometric: self.geometric,
+                ba_variant: self.ba_variant,
+                ba_music_beats: self.ba_music_beats,
+                ba_segment: self.ba_segment,
+                seed_frames: self.seed_frames,
+                max_frames: self.max_frames,
+                music_offset: self.music_offset,
+            })
+            .collect()
     }
 }
 
-/// Load, evaluate, write the JSON (if asked) and return the report with its markdown table.
-pub fn run(args: &Args) -> anyhow::Result<(MetricsReport, String)> {
+/// What `--json` writes: one report per metrics mode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EvaluationFile {
+    pub reports: Vec<MetricsReport>,
+}
+
+/// Load, evaluate each mode, write the JSON (if asked) and return the reports with their markdown table.
+pub fn run(args: &Args) -> anyhow::Result<(EvaluationFile, String)> {
     if let Some(dir) = &args.music {
         bail!(
             "{}: beat tracking from audio is not in this build yet; pass precomputed beats with --beats",
@@ -104,19 +124,33 @@ pub fn run(args: &Args) -> anyhow::Result<(MetricsReport, String)> {
             .cloned()
             .ok_or_else(|| crate::Error::file(path, format!("no beats for music ID '{id}'")))
     };
-    let report = evaluate(
-        &generated,
-        &reference,
-        beats
-            .as_ref()
-            .map(|_| &lookup as crate::protocol::BeatLookup),
-        &args.config(),
-    )?;
+    let lookup_ref = beats
+        .as_ref()
+        .map(|_| &lookup as crate::protocol::BeatLookup);
+    let reports = args
+        .configs()
+        .iter()
+        .map(|cfg| evaluate(&generated, &reference, lookup_ref, cfg))
+        .collect::<crate::Result<Vec<_>>>()?;
+    let file = EvaluationFile { reports };
     if let Some(path) = &args.json {
-        write_json_atomic(path, &report)?;
+        write_json_atomic(path, &file)?;
     }
-    let table = render_markdown(&[(args.label.as_str(), &report)]);
-    Ok((report, table))
+    let labels: Vec<String> = file
+        .reports
+        .iter()
+        .map(|r| match file.reports.len() {
+            1 => args.label.clone(),
+            _ => format!("{} ({})", args.label, value_name(r.config.metrics_mode)),
+        })
+        .collect();
+    let rows: Vec<(&str, &MetricsReport)> = labels
+        .iter()
+        .map(String::as_str)
+        .zip(&file.reports)
+        .collect();
+    let table = render_markdown(&rows);
+    Ok((file, table))
 }
 
 /// Logging to stderr; RUST_LOG overrides the -v level.

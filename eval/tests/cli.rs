@@ -7,8 +7,8 @@ use std::path::Path;
 
 use clap::Parser;
 use common::{aist_name, synthetic_motion};
-use qean_eval::cli::{run, Args};
-use qean_eval::{Frame, MetricsReport};
+use qean_eval::cli::{run, Args, EvaluationFile};
+use qean_eval::{Frame, MetricsMode, MetricsReport};
 
 fn write_npy(path: &Path, joints: &[Frame], f32_dtype: bool, flat: bool) {
     let shape = if flat {
@@ -98,14 +98,17 @@ fn evaluates_npy_directories_and_writes_json() {
         "--json",
         out.to_str().unwrap(),
     ]);
-    let (report, table) = run(&args).unwrap();
+    let (file, table) = run(&args).unwrap();
+    assert_eq!(file.reports.len(), 1);
+    let report = &file.reports[0];
     assert_eq!((report.n_generated, report.n_reference), (4, 7));
     assert!(report.sequences.iter().all(|s| s.frames == 150));
     assert!(report.beat_align.is_some());
     assert!(table.contains("| generated |"));
     assert!(table.contains("metrics_mode=corrected") && table.contains("BeatAlign = mint variant"));
-    let back: MetricsReport =
+    let back: EvaluationFile =
         serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let back: MetricsReport = back.reports.into_iter().next().unwrap();
     // serde_json's default float parsing may differ in the last bit: compare to 1e-12.
     let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(1.0);
     assert!(close(back.fid_k, report.fid_k) && close(back.fid_g, report.fid_g));
@@ -166,4 +169,32 @@ fn clear_errors_for_unsupported_inputs() {
         format!("{err:#}").contains("no beats for music ID 'mLO1'"),
         "{err:#}"
     );
+}
+
+#[test]
+fn both_metrics_modes_by_default() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    fixture(d);
+    let args = Args::parse_from([
+        "qean-eval",
+        "--generated",
+        d.join("gen").to_str().unwrap(),
+        "--reference",
+        d.join("ref").to_str().unwrap(),
+        "--seed-frames",
+        "30",
+        "--label",
+        "ours",
+    ]);
+    let (file, table) = run(&args).unwrap();
+    let modes: Vec<_> = file.reports.iter().map(|r| r.config.metrics_mode).collect();
+    assert_eq!(modes, [MetricsMode::Reference, MetricsMode::Corrected]);
+    // The acceleration bug changes the kinetic features, and τ the geometric ones.
+    assert_ne!(file.reports[0].fid_k, file.reports[1].fid_k);
+    assert!(
+        table.contains("| ours (reference) |") && table.contains("| ours (corrected) |"),
+        "{table}"
+    );
+    assert_eq!(file.reports[0].beat_align, None);
 }
