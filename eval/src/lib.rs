@@ -2,6 +2,10 @@
 //! (Bailando `utils/metrics_new.py`, `utils/features/{kinetic,manual_new}.py`,
 //! `utils/beat_align_score.py`; mint `tools/calculate_*_scores.py`), bugs included by default
 //! (SPEC §7). Each report says which variants produced it.
+//!
+//! Entry points: [`evaluate`] (loaded joint sequences + a music-beat lookup → [`MetricsReport`]),
+//! [`render_markdown`] (the paper-layout table), [`features_of`] and the per-metric modules for
+//! single numbers, and [`cli`] for the `qean-eval` binary. File reading lives in [`io`] only.
 
 pub mod beat_align;
 pub mod cli;
