@@ -61,7 +61,7 @@ pub fn gaussian_filter1d(x: &[f64], sigma: f64) -> Vec<f64> {
         .collect()
 }
 
-/// scipy.signal `argrelextrema(x, np.less, order)` with mode "clip": x[i] strictly below every
+/// scipy.signal `argrelextrema(x, np.less, order)` with mode "clip": `x[i]` strictly below every
 /// neighbour within `order`, out-of-range neighbours clipped to the end value (so the ends never
 /// qualify).
 pub fn local_minima(x: &[f64], order: usize) -> Vec<usize> {
@@ -77,7 +77,7 @@ fn speed(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
-/// Bailando `calc_db`: v[t] = mean over joints of |p[t+1] − p[t]|, t < T−1, smoothed; minima.
+/// Bailando `calc_db`: `v[t]` = mean over joints of `|p[t+1] − p[t]|`, t < T−1, smoothed; minima.
 /// Returns (motion beats, length of v).
 pub fn motion_beats_bailando(joints: &[Frame]) -> (Vec<usize>, usize) {
     let v: Vec<f64> = joints
@@ -94,7 +94,7 @@ pub fn motion_beats_bailando(joints: &[Frame]) -> (Vec<usize>, usize) {
     (local_minima(&smooth, 1), v.len())
 }
 
-/// mint `motion_peak_onehot`: v[0] = 0, e[t] = Σ_joints |p[t] − p[t−1]|, unsmoothed; ±10 minima.
+/// mint `motion_peak_onehot`: `v[0] = 0`, `e[t] = Σ_joints |p[t] − p[t−1]|`, unsmoothed; ±10 minima.
 pub fn motion_beats_mint(joints: &[Frame]) -> Vec<usize> {
     let mut e = vec![0.0; joints.len()];
     for t in 1..joints.len() {
