@@ -1,0 +1,169 @@
+//! The `qean-eval` command line: parse, load, evaluate, print. All logic is reachable from tests.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use clap::Parser;
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::{
+    value_name, BaSegment, BaVariant, EvalConfig, GeometricVariant, MetricsMode, MusicBeatSource,
+    PositionMode,
+};
+use crate::io::{load_joints_dir, read_beats_json, write_json_atomic};
+use crate::protocol::evaluate;
+use crate::report::{render_markdown, MetricsReport};
+
+/// Evaluate generated dance motion against AIST++ ground truth: FID_k, FID_g, Dist_k, Dist_g and
+/// BeatAlign, computed as Bailando's and mint's reference code computes them (bugs included by
+/// default; see --metrics-mode).
+#[derive(Debug, Parser)]
+#[command(name = "qean-eval", version)]
+pub struct Args {
+    /// Directory of generated motions: joint positions as .npy (T, 24, 3) or (T, 72), seed frames first.
+    #[arg(long)]
+    pub generated: PathBuf,
+    /// Directory of ground-truth motions (the normalisation and FID reference set), same format.
+    #[arg(long)]
+    pub reference: PathBuf,
+    /// Directory of the AIST++ music (.wav); beats tracked from audio. Not available in this build yet.
+    #[arg(long, conflicts_with = "beats")]
+    pub music: Option<PathBuf>,
+    /// JSON file of precomputed music beats: {"mBR0": [frame, ...], ...} at 60 FPS.
+    #[arg(long)]
+    pub beats: Option<PathBuf>,
+    /// Which music beats --beats holds (a label recorded in the report).
+    #[arg(long, value_enum, default_value_t = MusicBeatSource::Bailando)]
+    pub ba_music_beats: MusicBeatSource,
+    /// BeatAlign formula: Bailando's (over music beats) or mint PR-41's (over motion beats).
+    #[arg(long, value_enum, default_value_t = BaVariant::Bailando)]
+    pub ba_variant: BaVariant,
+    /// Frames BeatAlign scores: the generated ones, or seed and generated.
+    #[arg(long, value_enum, default_value_t = BaSegment::Generated)]
+    pub ba_segment: BaSegment,
+    /// Metric modes to compute, comma-separated: reference = the reference code's bugs (acceleration
+    /// precedence, τ = 1/120), comparable with published tables; corrected = both fixed. The report
+    /// holds one entry per mode (SPEC §7.6 keeps both).
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "reference,corrected"
+    )]
+    pub metrics_mode: Vec<MetricsMode>,
+    /// zero_start = Bailando (subtract the first root position); mint_absolute = mint.
+    #[arg(long, value_enum, default_value_t = PositionMode::ZeroStart)]
+    pub positions: PositionMode,
+    /// Geometric feature extractor: manual_new (fixed joint names) or legacy_fairmotion.
+    #[arg(long, value_enum, default_value_t = GeometricVariant::ManualNew)]
+    pub geometric: GeometricVariant,
+    /// Leading frames of each generated file that are the seed (120 for `qean sample` output).
+    #[arg(long, default_value_t = 120)]
+    pub seed_frames: usize,
+    /// Evaluate at most this many generated frames.
+    #[arg(long, default_value_t = 1200)]
+    pub max_frames: usize,
+    /// Music frame of each generated file's frame 0.
+    #[arg(long, default_value_t = 0)]
+    pub music_offset: usize,
+    /// Write the full report (per-sequence values included) here as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Row label of the markdown table.
+    #[arg(long, default_value = "generated")]
+    pub label: String,
+    /// More logging (-v info, -vv debug).
+    #[arg(short, long, action = clap::ArgAction::Count)]
+    pub verbose: u8,
+}
+
+impl Args {
+    /// The configuration of each requested metrics mode.
+    pub fn configs(&self) -> Vec<EvalConfig> {
+        self.metrics_mode
+            .iter()
+            .map(|&metrics_mode| EvalConfig {
+                metrics_mode,
+                positions: self.positions,
+                geometric: self.geometric,
+                ba_variant: self.ba_variant,
+                ba_music_beats: self.ba_music_beats,
+                ba_segment: self.ba_segment,
+                seed_frames: self.seed_frames,
+                max_frames: self.max_frames,
+                music_offset: self.music_offset,
+            })
+            .collect()
+    }
+}
+
+/// What `--json` writes: one report per metrics mode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EvaluationFile {
+    pub reports: Vec<MetricsReport>,
+}
+
+/// Load, evaluate each mode, write the JSON (if asked) and return the reports with their markdown table.
+pub fn run(args: &Args) -> anyhow::Result<(EvaluationFile, String)> {
+    if let Some(dir) = &args.music {
+        bail!(
+            "{}: beat tracking from audio is not in this build yet; pass precomputed beats with --beats",
+            dir.display()
+        );
+    }
+    let generated = load_joints_dir(&args.generated).context("loading generated motions")?;
+    let reference = load_joints_dir(&args.reference).context("loading reference motions")?;
+    let beats = match &args.beats {
+        Some(p) => Some((p.clone(), read_beats_json(p)?)),
+        None => None,
+    };
+    let lookup = |id: &str| -> crate::Result<Vec<usize>> {
+        let (path, map) = beats.as_ref().expect("lookup only passed with beats");
+        map.get(id)
+            .cloned()
+            .ok_or_else(|| crate::Error::file(path, format!("no beats for music ID '{id}'")))
+    };
+    let lookup_ref = beats
+        .as_ref()
+        .map(|_| &lookup as crate::protocol::BeatLookup);
+    let reports = args
+        .configs()
+        .iter()
+        .map(|cfg| evaluate(&generated, &reference, lookup_ref, cfg))
+        .collect::<crate::Result<Vec<_>>>()?;
+    let file = EvaluationFile { reports };
+    if let Some(path) = &args.json {
+        write_json_atomic(path, &file)?;
+    }
+    let labels: Vec<String> = file
+        .reports
+        .iter()
+        .map(|r| match file.reports.len() {
+            1 => args.label.clone(),
+            _ => format!("{} ({})", args.label, value_name(r.config.metrics_mode)),
+        })
+        .collect();
+    let rows: Vec<(&str, &MetricsReport)> = labels
+        .iter()
+        .map(String::as_str)
+        .zip(&file.reports)
+        .collect();
+    let table = render_markdown(&rows);
+    Ok((file, table))
+}
+
+/// Logging to stderr; RUST_LOG overrides the -v level.
+pub fn init_logging(verbose: u8) {
+    let level = match verbose {
+        0 => "warn",
+        1 => "info",
+        _ => "debug",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}

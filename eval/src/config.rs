@@ -1,0 +1,133 @@
+//! The variant switches of the evaluation (SPEC §7, §10) and their labels. Every number in a report is
+//! tagged with the configuration that produced it.
+
+use clap::ValueEnum;
+use serde::{Deserialize, Serialize};
+
+/// SPEC §7.6. `Reference` keeps the reference code's bugs (acceleration precedence, τ = 1/120);
+/// `Corrected` fixes both and changes nothing else.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, ValueEnum)]
+#[serde(rename_all = "snake_case")]
+#[value(rename_all = "snake_case")]
+pub enum MetricsMode {
+    #[default]
+    Reference,
+    Corrected,
+}
+
+/// SPEC §7.1: Bailando subtracts the frame-0 root of the evaluated segment; mint uses absolute positions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, ValueEnum)]
+#[serde(rename_all = "snake_case")]
+#[value(rename_all = "snake_case")]
+pub enum PositionMode {
+    #[default]
+    ZeroStart,
+    MintAbsolute,
+}
+
+/// SPEC §7.3: which geometric ("manual") extractor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, ValueEnum)]
+#[serde(rename_all = "snake_case")]
+#[value(rename_all = "snake_case")]
+pub enum GeometricVariant {
+    /// Bailando `utils/features/manual_new.py` = aist-api `features/manual.py` after 091f00b.
+    #[default]
+    ManualNew,
+    /// aist-api `features/manual.py` before 091f00b: mis-ordered joint names and their constants.
+    LegacyFairmotion,
+}
+
+/// SPEC §7.5: which BeatAlign formula.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, ValueEnum)]
+#[serde(rename_all = "snake_case")]
+#[value(rename_all = "snake_case")]
+pub enum BaVariant {
+    /// Bailando `utils/beat_align_score.py`: averaged over music beats.
+    #[default]
+    Bailando,
+    /// mint PR-41 `tools/calculate_beat_scores.py`: averaged over motion beats.
+    Mint,
+}
+
+/// SPEC §7.5: where the music beats came from (a label: the caller supplies the beats).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, ValueEnum)]
+#[serde(rename_all = "snake_case")]
+#[value(rename_all = "snake_case")]
+pub enum MusicBeatSource {
+    /// HPSS-percussive median onset envelope, start_bpm 120 (Bailando's music features).
+    #[default]
+    Bailando,
+    /// Column 34 of the 35-D FACT feature.
+    Feature35,
+}
+
+/// SPEC §7.5: which frames BeatAlign scores for generated motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, ValueEnum)]
+#[serde(rename_all = "snake_case")]
+#[value(rename_all = "snake_case")]
+pub enum BaSegment {
+    /// The generated frames only, against music [seed, seed + L).
+    #[default]
+    Generated,
+    /// Seed and generated frames, against music [0, seed + L).
+    Full,
+}
+
+/// Everything that decides the numbers of one evaluation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EvalConfig {
+    pub metrics_mode: MetricsMode,
+    pub positions: PositionMode,
+    pub geometric: GeometricVariant,
+    pub ba_variant: BaVariant,
+    pub ba_music_beats: MusicBeatSource,
+    pub ba_segment: BaSegment,
+    /// Leading frames of each generated sequence that are the seed, not generated (SPEC §1.6: 120 for
+    /// our sampler's seed ++ generated output; 0 for files holding generated frames only).
+    pub seed_frames: usize,
+    /// At most this many generated frames are evaluated (SPEC §1.6: 1200).
+    pub max_frames: usize,
+    /// Music frame of each generated sequence's frame 0 (0 when the seed is the first GT frames).
+    pub music_offset: usize,
+}
+
+impl Default for EvalConfig {
+    fn default() -> Self {
+        EvalConfig {
+            metrics_mode: MetricsMode::Reference,
+            positions: PositionMode::ZeroStart,
+            geometric: GeometricVariant::ManualNew,
+            ba_variant: BaVariant::Bailando,
+            ba_music_beats: MusicBeatSource::Bailando,
+            ba_segment: BaSegment::Generated,
+            seed_frames: 120,
+            max_frames: 1200,
+            music_offset: 0,
+        }
+    }
+}
+
+impl EvalConfig {
+    /// A one-line label naming every variant, printed under tables.
+    pub fn label(&self) -> String {
+        format!(
+            "metrics_mode={}, positions={}, geometric={}, BeatAlign={} (music beats: {}, segment: {}), seed_frames={}, max_frames={}, music_offset={}",
+            value_name(self.metrics_mode),
+            value_name(self.positions),
+            value_name(self.geometric),
+            value_name(self.ba_variant),
+            value_name(self.ba_music_beats),
+            value_name(self.ba_segment),
+            self.seed_frames,
+            self.max_frames,
+            self.music_offset
+        )
+    }
+}
+
+/// The CLI/JSON spelling of a variant.
+pub fn value_name<T: ValueEnum>(v: T) -> String {
+    v.to_possible_value()
+        .map(|p| p.get_name().to_string())
+        .unwrap_or_default()
+}

@@ -1,0 +1,288 @@
+//! The evaluation protocol (SPEC §1.6, §7): from loaded joint sequences and a music-beat lookup to a
+//! [`MetricsReport`]. Loading files is the caller's business (see `io`), so this is testable in memory.
+
+use std::collections::HashMap;
+
+use rayon::prelude::*;
+use tracing::{info, warn};
+
+use crate::beat_align::{score_generated, score_ground_truth, BeatScores};
+use crate::config::{BaVariant, EvalConfig};
+use crate::dist::average_distance;
+use crate::error::{Error, Result};
+use crate::fid::fid;
+use crate::geometric::geometric_features;
+use crate::kinetic::{self, kinetic_features};
+use crate::normalise::Normaliser;
+use crate::positions::{check_finite, prepare, Frame, Sequence};
+use crate::report::{Exclusion, MetricsReport, SequenceMetrics};
+
+/// Music beats (60 FPS frame indices of the whole track) for a music ID such as `mBR0`.
+pub type BeatLookup<'a> = &'a (dyn Fn(&str) -> Result<Vec<usize>> + Sync);
+
+/// Raw features of one sequence.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Features {
+    pub kinetic: Vec<f64>,
+    pub geometric: Vec<f64>,
+}
+
+/// Kinetic and geometric features of an evaluated segment, positions prepared per `cfg`.
+pub fn features_of(joints: &[Frame], cfg: &EvalConfig) -> Result<Features> {
+    let p = prepare(joints, cfg.positions);
+    Ok(Features {
+        kinetic: kinetic_features(&p, cfg.metrics_mode)?,
+        geometric: geometric_features(&p, cfg.geometric, cfg.metrics_mode)?,
+    })
+}
+
+fn mean_of(values: impl Iterator<Item = Option<f64>>) -> (Option<f64>, usize) {
+    let v: Vec<f64> = values.flatten().collect();
+    if v.is_empty() {
+        (None, 0)
+    } else {
+        (Some(v.iter().sum::<f64>() / v.len() as f64), v.len())
+    }
+}
+
+fn pick(s: BeatScores, variant: BaVariant) -> Option<f64> {
+    match variant {
+        BaVariant::Bailando => s.bailando,
+        BaVariant::Mint => s.mint,
+    }
+}
+
+fn music_id(name: &str) -> Result<String> {
+    qean_data::names::music_id_of(name).ok_or_else(|| Error::Sequence {
+        name: name.to_string(),
+        message: "no AIST++ music ID (e.g. mBR0) in the name, needed to find its music beats"
+            .into(),
+    })
+}
+
+/// Evaluate `generated` (seed ++ generated frames, per `cfg.seed_frames`) against the GT
+/// `reference` set (full length). With `music_beats`, BeatAlign is computed too.
+///
+/// Degenerate inputs: a non-finite joint is an error; a sequence too short for the features
+/// (fewer than 4 evaluated frames) is excluded and logged; fewer than 2 usable sequences on
+/// either side is an error (covariances and Dist need 2); a sequence without music beats in range
+/// is left out of BeatAlign and logged.
+pub fn evaluate(
+    generated: &[Sequence],
+    reference: &[Sequence],
+    music_beats: Option<BeatLookup>,
+    cfg: &EvalConfig,
+) -> Result<MetricsReport> {
+    generated
+        .par_iter()
+        .chain(reference.par_iter())
+        .try_for_each(|s| check_finite(&s.name, &s.joints))?;
+    let mut excluded = Vec::new();
+    let min = kinetic::MIN_FRAMES;
+
+    // Generated: frames [seed, seed + L), L = min(max_frames, T − seed).
+    let mut gen: Vec<(&Sequence, usize)> = Vec::new();
+    for s in generated {
+        let len = s
+            .joints
+            .len()
+            .saturating_sub(cfg.seed_frames)
+            .min(cfg.max_frames);
+        if len < min {
+            let reason = format!(
+                "{} frame(s) after the {}-frame seed; the features need at least {min}",
+                len, cfg.seed_frames
+            );
+            warn!(sequence = %s.name, "excluded from the generated set: {reason}");
+            excluded.push(Exclusion {
+                set: "generated".into(),
+                name: s.name.clone(),
+                from: "all".into(),
+                reason,
+            });
+        } else {
+            gen.push((s, len));
+        }
+    }
+    let mut refs: Vec<&Sequence> = Vec::new();
+    for s in reference {
+        if s.joints.len() < min {
+            let reason = format!(
+                "{} frame(s); the features need at least {min}",
+                s.joints.len()
+            );
+            warn!(sequence = %s.name, "excluded from the reference set: {reason}");
+            excluded.push(Exclusion {
+                set: "reference".into(),
+                name: s.name.clone(),
+                from: "all".into(),
+                reason,
+            });
+        } else {
+            refs.push(s);
+        }
+    }
+    for (set, got) in [("generated", gen.len()), ("reference", refs.len())] {
+        if got < 2 {
+            return Err(Error::TooFewSequences {
+                set,
+                what: "FID (a covariance) and Dist",
+                needed: 2,
+                got,
+            });
+        }
+    }
+
+    info!(
+        generated = gen.len(),
+        reference = refs.len(),
+        "computing features ({})",
+        cfg.label()
+    );
+    let gen_feats: Vec<Features> = gen
+        .par_iter()
+        .map(|(s, len)| features_of(&s.joints[cfg.seed_frames..cfg.seed_frames + len], cfg))
+        .collect::<Result<_>>()?;
+    let ref_feats: Vec<Features> = refs
+        .par_iter()
+        .map(|s| features_of(&s.joints, cfg))
+        .collect::<Result<_>>()?;
+
+    let split = |f: &[Features]| -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+        f.iter()
+            .map(|x| (x.kinetic.clone(), x.geometric.clone()))
+            .unzip()
+    };
+    let (gen_k, gen_g) = split(&gen_feats);
+    let (ref_k, ref_g) = split(&ref_feats);
+    let norm_k = Normaliser::fit(&ref_k)?;
+    let norm_g = Normaliser::fit(&ref_g)?;
+    for (what, n) in [("kinetic", &norm_k), ("geometric", &norm_g)] {
+        let dims = n.constant_dims();
+        if !dims.is_empty() {
+            warn!(
+                "{what} feature dimension(s) {dims:?} are constant over the reference set; \
+                 normalised by σ + 1e-10 as the reference code does"
+            );
+        }
+    }
+    let (gen_kn, ref_kn) = (norm_k.apply(&gen_k), norm_k.apply(&ref_k));
+    let (gen_gn, ref_gn) = (norm_g.apply(&gen_g), norm_g.apply(&ref_g));
+    let fid_k = fid(&gen_kn, &ref_kn)?;
+    let fid_g = fid(&gen_gn, &ref_gn)?;
+    let div_k = average_distance(&gen_kn)?;
+    let div_g = average_distance(&gen_gn)?;
+    let gt_div_k = average_distance(&ref_kn)?;
+    let gt_div_g = average_distance(&ref_gn)?;
+
+    // BeatAlign, the music beats looked up once per music ID.
+    let mut scores: Vec<Option<BeatScores>> = vec![None; gen.len()];
+    let mut gt_scores: Vec<BeatScores> = Vec::new();
+    let mut music_ids: Vec<Option<String>> = vec![None; gen.len()];
+    if let Some(lookup) = music_beats {
+        let ids: Vec<String> = gen
+            .iter()
+            .map(|(s, _)| music_id(&s.name))
+            .collect::<Result<_>>()?;
+        let mut beats: HashMap<&str, Vec<usize>> = HashMap::new();
+        for id in &ids {
+            if !beats.contains_key(id.as_str()) {
+                beats.insert(id, lookup(id)?);
+            }
+        }
+        scores = gen
+            .par_iter()
+            .zip(&ids)
+            .map(|((s, len), id)| {
+                let shifted: Vec<usize> = beats[id.as_str()]
+                    .iter()
+                    .filter(|&&b| b >= cfg.music_offset)
+                    .map(|&b| b - cfg.music_offset)
+                    .collect();
+                Some(score_generated(
+                    &s.joints,
+                    cfg.seed_frames,
+                    *len,
+                    &shifted,
+                    cfg.ba_segment,
+                ))
+            })
+            .collect();
+        let by_name: HashMap<&str, &Sequence> =
+            refs.iter().map(|s| (s.name.as_str(), *s)).collect();
+        let paired: Vec<(&Sequence, &str)> = gen
+            .iter()
+            .zip(&ids)
+            .filter_map(|((s, _), id)| by_name.get(s.name.as_str()).map(|r| (*r, id.as_str())))
+            .collect();
+        if paired.is_empty() {
+            warn!("no reference sequence has a generated sequence's name: no GT BeatAlign");
+        }
+        gt_scores = paired
+            .par_iter()
+            .map(|(r, id)| score_ground_truth(&r.joints, &beats[id]))
+            .collect();
+        for ((s, _), sc) in gen.iter().zip(&scores) {
+            if pick(sc.unwrap_or_default(), cfg.ba_variant).is_none() {
+                let reason = "no music beats inside the scored segment".to_string();
+                warn!(sequence = %s.name, "left out of BeatAlign: {reason}");
+                excluded.push(Exclusion {
+                    set: "generated".into(),
+                    name: s.name.clone(),
+                    from: "beat_align".into(),
+                    reason,
+                });
+            }
+        }
+        music_ids = ids.into_iter().map(Some).collect();
+    }
+    let (ba_b, n_b) = mean_of(scores.iter().map(|s| s.and_then(|s| s.bailando)));
+    let (ba_m, n_m) = mean_of(scores.iter().map(|s| s.and_then(|s| s.mint)));
+    let (gt_b, gn_b) = mean_of(gt_scores.iter().map(|s| s.bailando));
+    let (gt_m, gn_m) = mean_of(gt_scores.iter().map(|s| s.mint));
+    let (beat_align, n_beat_align, gt_beat_align, n_gt) = match cfg.ba_variant {
+        BaVariant::Bailando => (ba_b, n_b, gt_b, gn_b),
+        BaVariant::Mint => (ba_m, n_m, gt_m, gn_m),
+    };
+
+    let sequences = gen
+        .iter()
+        .zip(gen_feats)
+        .zip(scores.iter().zip(music_ids))
+        .map(|(((s, len), f), (sc, id))| SequenceMetrics {
+            name: s.name.clone(),
+            music_id: id,
+            frames: *len,
+            beat_align_bailando: sc.and_then(|x| x.bailando),
+            beat_align_mint: sc.and_then(|x| x.mint),
+            kinetic: f.kinetic,
+            geometric: f.geometric,
+        })
+        .collect();
+    let report = MetricsReport {
+        config: cfg.clone(),
+        label: cfg.label(),
+        fid_k,
+        fid_g,
+        div_k,
+        div_g,
+        beat_align,
+        beat_align_bailando: ba_b,
+        beat_align_mint: ba_m,
+        gt_div_k,
+        gt_div_g,
+        gt_beat_align,
+        gt_beat_align_bailando: gt_b,
+        gt_beat_align_mint: gt_m,
+        n_generated: gen.len(),
+        n_reference: refs.len(),
+        n_beat_align,
+        n_gt_beat_align: n_gt,
+        constant_reference_dims_k: norm_k.constant_dims(),
+        constant_reference_dims_g: norm_g.constant_dims(),
+        sequences,
+        excluded,
+    };
+    report.check_finite()?;
+    Ok(report)
+}

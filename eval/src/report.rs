@@ -1,0 +1,146 @@
+//! The metrics report (serde JSON) and its markdown rendering in the layout of QEAN Table 1
+//! (SPEC §8), each number tagged with the variants that produced it.
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::{value_name, EvalConfig};
+use crate::error::{Error, Result};
+
+/// Per generated sequence: its evaluated length, BeatAlign under both variants and the raw
+/// (unnormalised) features.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SequenceMetrics {
+    pub name: String,
+    pub music_id: Option<String>,
+    /// Evaluated generated frames L (after the seed and the max-frames cut).
+    pub frames: usize,
+    pub beat_align_bailando: Option<f64>,
+    pub beat_align_mint: Option<f64>,
+    pub kinetic: Vec<f64>,
+    pub geometric: Vec<f64>,
+}
+
+/// A sequence left out of some average, and why (also logged).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Exclusion {
+    /// "generated" or "reference".
+    pub set: String,
+    pub name: String,
+    /// What it is left out of: "all" or "beat_align".
+    pub from: String,
+    pub reason: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MetricsReport {
+    pub config: EvalConfig,
+    pub label: String,
+    pub fid_k: f64,
+    pub fid_g: f64,
+    /// Dist_k / Dist_g of the generated set (Bailando's Div_k / Div_g).
+    pub div_k: f64,
+    pub div_g: f64,
+    /// BeatAlign under `config.ba_variant`; `None` without music beats.
+    pub beat_align: Option<f64>,
+    pub beat_align_bailando: Option<f64>,
+    pub beat_align_mint: Option<f64>,
+    /// Dist of the normalised reference set.
+    pub gt_div_k: f64,
+    pub gt_div_g: f64,
+    /// BeatAlign of the GT sequences paired (by name) with the generated ones, with their own music.
+    pub gt_beat_align: Option<f64>,
+    pub gt_beat_align_bailando: Option<f64>,
+    pub gt_beat_align_mint: Option<f64>,
+    pub n_generated: usize,
+    pub n_reference: usize,
+    pub n_beat_align: usize,
+    pub n_gt_beat_align: usize,
+    /// Reference dimensions with σ = 0 (normalised by 1e-10 as the reference does).
+    pub constant_reference_dims_k: Vec<usize>,
+    pub constant_reference_dims_g: Vec<usize>,
+    pub sequences: Vec<SequenceMetrics>,
+    pub excluded: Vec<Exclusion>,
+}
+
+impl MetricsReport {
+    /// Error if any number is NaN or infinite (the report must never carry one).
+    pub fn check_finite(&self) -> Result<()> {
+        let mut named: Vec<(String, f64)> = vec![
+            ("fid_k".into(), self.fid_k),
+            ("fid_g".into(), self.fid_g),
+            ("div_k".into(), self.div_k),
+            ("div_g".into(), self.div_g),
+            ("gt_div_k".into(), self.gt_div_k),
+            ("gt_div_g".into(), self.gt_div_g),
+        ];
+        let opts = [
+            ("beat_align", self.beat_align),
+            ("beat_align_bailando", self.beat_align_bailando),
+            ("beat_align_mint", self.beat_align_mint),
+            ("gt_beat_align", self.gt_beat_align),
+            ("gt_beat_align_bailando", self.gt_beat_align_bailando),
+            ("gt_beat_align_mint", self.gt_beat_align_mint),
+        ];
+        named.extend(
+            opts.iter()
+                .filter_map(|(n, v)| v.map(|v| (n.to_string(), v))),
+        );
+        for s in &self.sequences {
+            for v in s.beat_align_bailando.iter().chain(&s.beat_align_mint) {
+                named.push((format!("{} beat_align", s.name), *v));
+            }
+            for v in s.kinetic.iter().chain(&s.geometric) {
+                named.push((format!("{} features", s.name), *v));
+            }
+        }
+        match named.into_iter().find(|(_, v)| !v.is_finite()) {
+            Some((n, v)) => Err(Error::Invalid(format!(
+                "internal error: {n} is {v}; refusing to report a non-finite metric"
+            ))),
+            None => Ok(()),
+        }
+    }
+}
+
+fn opt(v: Option<f64>, digits: usize) -> String {
+    v.map_or_else(|| "-".to_string(), |x| format!("{x:.digits$}"))
+}
+
+/// A markdown table in the layout of QEAN Table 1: an "AIST++" GT row (from the first report) and
+/// one row per report, then one line per report naming its variants.
+pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
+    let mut out = String::new();
+    out.push_str("| Methods | FID_k ↓ | FID_g ↓ | Dist_k ↑ | Dist_g ↑ | BeatAlign ↑ |\n");
+    out.push_str("|---|---|---|---|---|---|\n");
+    if let Some((_, gt)) = rows.first() {
+        out.push_str(&format!(
+            "| AIST++ | - | - | {:.3} | {:.3} | {} |\n",
+            gt.gt_div_k,
+            gt.gt_div_g,
+            opt(gt.gt_beat_align, 4)
+        ));
+    }
+    for (name, r) in rows {
+        out.push_str(&format!(
+            "| {name} | {:.2} | {:.2} | {:.3} | {:.3} | {} |\n",
+            r.fid_k,
+            r.fid_g,
+            r.div_k,
+            r.div_g,
+            opt(r.beat_align, 4)
+        ));
+    }
+    out.push('\n');
+    for (name, r) in rows {
+        out.push_str(&format!(
+            "- {name}: {} generated vs {} reference sequences; BeatAlign = {} variant over {} sequences (GT: {}); {}\n",
+            r.n_generated,
+            r.n_reference,
+            value_name(r.config.ba_variant),
+            r.n_beat_align,
+            r.n_gt_beat_align,
+            r.label
+        ));
+    }
+    out
+}

@@ -1,0 +1,200 @@
+//! The `qean-eval` command line through its library entry point: .npy loading, beats JSON, the JSON
+//! report, and the clear errors for inputs this build does not read yet.
+
+mod common;
+
+use std::path::Path;
+
+use clap::Parser;
+use common::{aist_name, synthetic_motion};
+use qean_eval::cli::{run, Args, EvaluationFile};
+use qean_eval::{Frame, MetricsMode, MetricsReport};
+
+fn write_npy(path: &Path, joints: &[Frame], f32_dtype: bool, flat: bool) {
+    let shape = if flat {
+        format!("({}, 72)", joints.len())
+    } else {
+        format!("({}, 24, 3)", joints.len())
+    };
+    let descr = if f32_dtype { "<f4" } else { "<f8" };
+    let mut header = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+    bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    bytes.extend_from_slice(header.as_bytes());
+    for f in joints {
+        for p in f {
+            for &x in p {
+                if f32_dtype {
+                    bytes.extend_from_slice(&(x as f32).to_le_bytes());
+                } else {
+                    bytes.extend_from_slice(&x.to_le_bytes());
+                }
+            }
+        }
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+fn fixture(dir: &Path) {
+    std::fs::create_dir_all(dir.join("gen")).unwrap();
+    std::fs::create_dir_all(dir.join("ref")).unwrap();
+    for i in 0..4 {
+        let name = aist_name("LO", i, i, i);
+        write_npy(
+            &dir.join(format!("gen/{name}.npy")),
+            &synthetic_motion(i as u64, 180),
+            i % 2 == 0,
+            i == 1,
+        );
+    }
+    for i in 0..7 {
+        let name = aist_name("LO", i % 6, i, i);
+        write_npy(
+            &dir.join(format!("ref/{name}.npy")),
+            &synthetic_motion(50 + i as u64, 240),
+            false,
+            false,
+        );
+    }
+    let beats: std::collections::BTreeMap<String, Vec<usize>> = (0..6)
+        .map(|k| {
+            (
+                format!("mLO{k}"),
+                (0..20).map(|b| 11 + 24 * b + k).collect(),
+            )
+        })
+        .collect();
+    std::fs::write(
+        dir.join("beats.json"),
+        serde_json::to_string(&beats).unwrap(),
+    )
+    .unwrap();
+}
+
+#[test]
+fn evaluates_npy_directories_and_writes_json() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    fixture(d);
+    let out = d.join("report.json");
+    let args = Args::parse_from([
+        "qean-eval",
+        "--generated",
+        d.join("gen").to_str().unwrap(),
+        "--reference",
+        d.join("ref").to_str().unwrap(),
+        "--beats",
+        d.join("beats.json").to_str().unwrap(),
+        "--seed-frames",
+        "30",
+        "--ba-variant",
+        "mint",
+        "--metrics-mode",
+        "corrected",
+        "--json",
+        out.to_str().unwrap(),
+    ]);
+    let (file, table) = run(&args).unwrap();
+    assert_eq!(file.reports.len(), 1);
+    let report = &file.reports[0];
+    assert_eq!((report.n_generated, report.n_reference), (4, 7));
+    assert!(report.sequences.iter().all(|s| s.frames == 150));
+    assert!(report.beat_align.is_some());
+    assert!(table.contains("| generated |"));
+    assert!(table.contains("metrics_mode=corrected") && table.contains("BeatAlign = mint variant"));
+    let back: EvaluationFile =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let back: MetricsReport = back.reports.into_iter().next().unwrap();
+    // serde_json's default float parsing may differ in the last bit: compare to 1e-12.
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(1.0);
+    assert!(close(back.fid_k, report.fid_k) && close(back.fid_g, report.fid_g));
+    assert!(close(back.beat_align.unwrap(), report.beat_align.unwrap()));
+    assert_eq!(back.config, report.config);
+    assert_eq!(back.sequences.len(), 4);
+    assert_eq!(back.sequences[3].name, report.sequences[3].name);
+}
+
+#[test]
+fn f32_and_f64_npy_give_the_same_features_to_f32_precision() {
+    let tmp = tempfile::tempdir().unwrap();
+    let j = synthetic_motion(3, 50);
+    write_npy(&tmp.path().join("a.npy"), &j, true, false);
+    write_npy(&tmp.path().join("b.npy"), &j, false, true);
+    let a = qean_eval::io::read_joints_npy(&tmp.path().join("a.npy")).unwrap();
+    let b = qean_eval::io::read_joints_npy(&tmp.path().join("b.npy")).unwrap();
+    assert_eq!(b, j);
+    assert_eq!(a.len(), 50);
+    assert!((a[10][5][1] - j[10][5][1]).abs() < 1e-6);
+}
+
+#[test]
+fn clear_errors_for_unsupported_inputs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    fixture(d);
+    let base = |extra: &[&str]| {
+        let mut v = vec![
+            "qean-eval".to_string(),
+            "--generated".into(),
+            d.join("gen").display().to_string(),
+            "--reference".into(),
+            d.join("ref").display().to_string(),
+        ];
+        v.extend(extra.iter().map(|s| s.to_string()));
+        Args::parse_from(v)
+    };
+    let err = run(&base(&["--music", "/nowhere"])).unwrap_err();
+    assert!(format!("{err:#}").contains("--beats"), "{err:#}");
+    std::fs::write(d.join("gen/x.pkl"), b"not read").unwrap();
+    let err = run(&base(&[])).unwrap_err();
+    assert!(format!("{err:#}").contains("x.pkl"), "{err:#}");
+    std::fs::remove_file(d.join("gen/x.pkl")).unwrap();
+    std::fs::write(d.join("gen/bad.npy"), b"\x93NUMPY\x01\x00garbage").unwrap();
+    let err = run(&base(&[])).unwrap_err();
+    assert!(format!("{err:#}").contains("bad.npy"), "{err:#}");
+    std::fs::remove_file(d.join("gen/bad.npy")).unwrap();
+    let err = run(&base(&[
+        "--beats",
+        d.join("missing.json").to_str().unwrap(),
+    ]))
+    .unwrap_err();
+    assert!(format!("{err:#}").contains("missing.json"), "{err:#}");
+    std::fs::write(d.join("few.json"), "{\"mLO0\": [1, 2]}").unwrap();
+    let err = run(&base(&["--beats", d.join("few.json").to_str().unwrap()])).unwrap_err();
+    assert!(
+        format!("{err:#}").contains("no beats for music ID 'mLO1'"),
+        "{err:#}"
+    );
+}
+
+#[test]
+fn both_metrics_modes_by_default() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    fixture(d);
+    let args = Args::parse_from([
+        "qean-eval",
+        "--generated",
+        d.join("gen").to_str().unwrap(),
+        "--reference",
+        d.join("ref").to_str().unwrap(),
+        "--seed-frames",
+        "30",
+        "--label",
+        "ours",
+    ]);
+    let (file, table) = run(&args).unwrap();
+    let modes: Vec<_> = file.reports.iter().map(|r| r.config.metrics_mode).collect();
+    assert_eq!(modes, [MetricsMode::Reference, MetricsMode::Corrected]);
+    // The acceleration bug changes the kinetic features, and τ the geometric ones.
+    assert_ne!(file.reports[0].fid_k, file.reports[1].fid_k);
+    assert!(
+        table.contains("| ours (reference) |") && table.contains("| ours (corrected) |"),
+        "{table}"
+    );
+    assert_eq!(file.reports[0].beat_align, None);
+}

@@ -1,0 +1,246 @@
+//! The evaluation protocol end to end, and each degenerate input (one sequence, too short, constant
+//! features, NaN joints, no music beats): a clear error or a logged, reported exclusion, never a NaN.
+
+mod common;
+
+use std::collections::HashMap;
+
+use common::{aist_name, rest_pose, seq, synthetic_motion};
+use qean_eval::{evaluate, render_markdown, BaVariant, Error, EvalConfig, Sequence};
+
+fn sets(n_gen: usize, n_ref: usize, gen_frames: usize) -> (Vec<Sequence>, Vec<Sequence>) {
+    let reference: Vec<Sequence> = (0..n_ref)
+        .map(|i| {
+            seq(
+                &aist_name("BR", i % 6, i, i),
+                synthetic_motion(1000 + i as u64, 200 + 7 * i),
+            )
+        })
+        .collect();
+    let generated: Vec<Sequence> = (0..n_gen)
+        .map(|i| {
+            seq(
+                &aist_name("BR", i % 6, i, i),
+                synthetic_motion(i as u64, gen_frames),
+            )
+        })
+        .collect();
+    (generated, reference)
+}
+
+fn beats_every(period: usize) -> impl Fn(&str) -> qean_eval::Result<Vec<usize>> + Sync {
+    move |_id: &str| Ok((0..40).map(|k| 15 + k * period).collect())
+}
+
+fn cfg() -> EvalConfig {
+    EvalConfig {
+        seed_frames: 20,
+        max_frames: 150,
+        ..EvalConfig::default()
+    }
+}
+
+#[test]
+fn full_report_is_finite_and_tagged() {
+    let (g, r) = sets(6, 12, 200);
+    let beats = beats_every(30);
+    let rep = evaluate(&g, &r, Some(&beats), &cfg()).unwrap();
+    assert_eq!((rep.n_generated, rep.n_reference), (6, 12));
+    assert!(rep.fid_k > 0.0 && rep.fid_g >= 0.0 && rep.div_k > 0.0 && rep.gt_div_k > 0.0);
+    assert_eq!(rep.sequences.len(), 6);
+    assert!(rep.sequences.iter().all(|s| s.frames == 150));
+    assert_eq!(rep.beat_align, rep.beat_align_bailando);
+    // Generated names equal the first 6 reference names: 6 paired GT sequences.
+    assert_eq!(rep.n_gt_beat_align, 6);
+    let json = serde_json::to_string(&rep).unwrap();
+    assert!(!json.contains("NaN") && !json.contains("null,\"beat_align_bailando\":null"));
+    let md = render_markdown(&[("ours", &rep)]);
+    assert!(md.contains("| AIST++ | - | - |"));
+    assert!(md.contains("BeatAlign = bailando variant"), "{md}");
+    assert!(md.contains("metrics_mode=reference"));
+
+    let mint = EvalConfig {
+        ba_variant: BaVariant::Mint,
+        ..cfg()
+    };
+    let rep2 = evaluate(&g, &r, Some(&beats), &mint).unwrap();
+    assert_eq!(rep2.beat_align, rep.beat_align_mint);
+    assert_eq!(rep2.fid_k, rep.fid_k);
+}
+
+#[test]
+fn generated_sequence_equal_to_reference_scores_zero_fid_against_itself() {
+    let (_, r) = sets(0, 10, 0);
+    let g: Vec<Sequence> = r.clone();
+    let c = EvalConfig {
+        seed_frames: 0,
+        max_frames: 100_000,
+        ..EvalConfig::default()
+    };
+    let rep = evaluate(&g, &r, None, &c).unwrap();
+    assert!(
+        rep.fid_k.abs() < 1e-8 && rep.fid_g.abs() < 1e-8,
+        "{} {}",
+        rep.fid_k,
+        rep.fid_g
+    );
+    assert!((rep.div_k - rep.gt_div_k).abs() < 1e-12);
+    assert_eq!(rep.beat_align, None);
+}
+
+#[test]
+fn one_generated_sequence_is_an_error() {
+    let (g, r) = sets(1, 5, 200);
+    let err = evaluate(&g, &r, None, &cfg()).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            Error::TooFewSequences {
+                set: "generated",
+                got: 1,
+                ..
+            }
+        ),
+        "{err}"
+    );
+    let (g, r) = sets(3, 1, 200);
+    let err = evaluate(&g, &r, None, &cfg()).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            Error::TooFewSequences {
+                set: "reference",
+                got: 1,
+                ..
+            }
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn short_sequences_are_excluded_and_reported() {
+    let (mut g, mut r) = sets(4, 6, 200);
+    // 20 seed frames + 3 generated: too short.
+    g.push(seq(&aist_name("PO", 1, 9, 9), synthetic_motion(77, 23)));
+    r.push(seq(&aist_name("PO", 2, 9, 9), synthetic_motion(78, 3)));
+    let rep = evaluate(&g, &r, None, &cfg()).unwrap();
+    assert_eq!((rep.n_generated, rep.n_reference), (4, 6));
+    assert_eq!(rep.excluded.len(), 2);
+    assert!(rep.excluded.iter().all(|e| e.from == "all"));
+    assert!(rep.excluded[0]
+        .reason
+        .contains("3 frame(s) after the 20-frame seed"));
+    // If that leaves fewer than 2, it is an error.
+    let (g, r) = sets(1, 6, 200);
+    let mut g2 = g.clone();
+    g2.push(seq("short", synthetic_motion(5, 10)));
+    assert!(matches!(
+        evaluate(&g2, &r, None, &cfg()),
+        Err(Error::TooFewSequences { got: 1, .. })
+    ));
+}
+
+#[test]
+fn nan_joint_is_an_error_naming_the_sequence() {
+    let (mut g, r) = sets(3, 5, 200);
+    g[1].joints[57][13][2] = f64::NAN;
+    let err = evaluate(&g, &r, None, &cfg()).unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.contains(&g[1].name) && msg.contains("joint 13 of frame 57"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn constant_features_stay_finite() {
+    // Every sequence is the same motionless pose: all features constant, σ = 0 everywhere.
+    let still: Vec<_> = vec![rest_pose(); 60];
+    let r: Vec<Sequence> = (0..5)
+        .map(|i| seq(&format!("ref{i}"), still.clone()))
+        .collect();
+    let g: Vec<Sequence> = (0..3)
+        .map(|i| seq(&format!("gen{i}"), still.clone()))
+        .collect();
+    let rep = evaluate(&g, &r, None, &cfg()).unwrap();
+    assert_eq!(rep.constant_reference_dims_k.len(), 72);
+    assert_eq!(rep.constant_reference_dims_g.len(), 32);
+    // Identical vectors: Dist is exactly 0. FID sees the round-off of μ amplified by 1/(σ + 1e-10),
+    // as the reference does, so it is small, not 0.
+    assert_eq!((rep.div_k, rep.gt_div_g), (0.0, 0.0));
+    assert!(
+        rep.fid_k.abs() < 1e-2 && rep.fid_g.abs() < 1e-2,
+        "{} {}",
+        rep.fid_k,
+        rep.fid_g
+    );
+    // A generated set that moves, against a constant reference: huge but finite.
+    let (g, _) = sets(3, 0, 200);
+    let rep = evaluate(&g, &r, None, &cfg()).unwrap();
+    assert!(rep.fid_k.is_finite() && rep.fid_k > 1e10);
+}
+
+#[test]
+fn sequence_without_music_beats_is_left_out_of_beat_align() {
+    let (g, r) = sets(4, 6, 200);
+    let silent_id = qean_data::names::music_id_of(&g[0].name).unwrap();
+    let beats = move |id: &str| -> qean_eval::Result<Vec<usize>> {
+        Ok(if id == silent_id {
+            vec![]
+        } else {
+            (0..20).map(|k| 10 + 25 * k).collect()
+        })
+    };
+    let rep = evaluate(&g, &r, Some(&beats), &cfg()).unwrap();
+    assert_eq!(rep.sequences[0].beat_align_bailando, None);
+    assert_eq!(rep.n_beat_align, 3);
+    assert!(rep
+        .excluded
+        .iter()
+        .any(|e| e.name == g[0].name && e.from == "beat_align"));
+    // No music beats at all: BeatAlign is absent (null), never NaN.
+    let none = |_: &str| -> qean_eval::Result<Vec<usize>> { Ok(vec![]) };
+    let rep = evaluate(&g, &r, Some(&none), &cfg()).unwrap();
+    assert_eq!((rep.beat_align, rep.gt_beat_align), (None, None));
+    let json = serde_json::to_value(&rep).unwrap();
+    assert!(json["beat_align"].is_null());
+}
+
+#[test]
+fn music_offset_shifts_the_track() {
+    let (g, r) = sets(3, 5, 200);
+    let base: Vec<usize> = (0..30).map(|k| 7 + 13 * k).collect();
+    let shifted: HashMap<usize, Vec<usize>> = [
+        (0, base.clone()),
+        (50, base.iter().map(|b| b + 50).collect()),
+    ]
+    .into();
+    let mut results = Vec::new();
+    for offset in [0usize, 50] {
+        let list = shifted[&offset].clone();
+        let lookup = move |_: &str| -> qean_eval::Result<Vec<usize>> { Ok(list.clone()) };
+        let c = EvalConfig {
+            music_offset: offset,
+            ..cfg()
+        };
+        results.push(
+            evaluate(&g, &r, Some(&lookup), &c)
+                .unwrap()
+                .beat_align_bailando,
+        );
+    }
+    assert!(results[0].is_some());
+    assert_eq!(results[0], results[1]);
+}
+
+#[test]
+fn name_without_music_id_is_an_error_when_beats_are_needed() {
+    let (mut g, r) = sets(3, 5, 200);
+    g[2].name = "my_dance".into();
+    let beats = beats_every(30);
+    let err = evaluate(&g, &r, Some(&beats), &cfg()).unwrap_err();
+    assert!(err.to_string().contains("my_dance"), "{err}");
+    // Without beats the name does not matter.
+    assert!(evaluate(&g, &r, None, &cfg()).is_ok());
+}
