@@ -321,3 +321,54 @@ print("ok", len(names), m.nframes)
     );
     assert_eq!(String::from_utf8_lossy(&o.stdout).trim(), "ok 24 127");
 }
+
+/// `qean eval` reads AIST++ pickles (forward kinematics) and prints the table.
+#[test]
+fn eval_on_synthetic_pickles() {
+    let tmp = tempfile::tempdir().unwrap();
+    let ds = tmp.path().join("ds");
+    assert!(qean()
+        .args([
+            "synth",
+            "--sequences",
+            "12",
+            "--seconds",
+            "5",
+            "--sample-rate",
+            "8000",
+            "--out"
+        ])
+        .arg(&ds)
+        .status()
+        .unwrap()
+        .success());
+    let gen = tmp.path().join("gen");
+    std::fs::create_dir(&gen).unwrap();
+    for e in std::fs::read_dir(ds.join("motions")).unwrap().take(4) {
+        let p = e.unwrap().path();
+        std::fs::copy(&p, gen.join(p.file_name().unwrap())).unwrap();
+    }
+    let json = tmp.path().join("report.json");
+    let out = qean()
+        .args(["eval", "--seed-frames", "0", "--generated"])
+        .arg(&gen)
+        .arg("--reference")
+        .arg(ds.join("motions"))
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(table.contains("FID_k"), "{table}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let r = &v["reports"][0];
+    assert_eq!(r["n_generated"], 4);
+    assert_eq!(r["n_reference"], 12);
+    assert!(r["fid_k"].as_f64().unwrap().is_finite());
+}

@@ -21,7 +21,8 @@ use crate::report::{render_markdown, MetricsReport};
 #[derive(Debug, Parser)]
 #[command(name = "qean-eval", version)]
 pub struct Args {
-    /// Directory of generated motions: joint positions as .npy (T, 24, 3) or (T, 72), seed frames first.
+    /// Directory of generated motions, seed frames first: joint positions as .npy (T, 24, 3) or (T, 72), model
+    /// vectors .npy (T, 225|219), AIST++ .pkl (forward kinematics applied) or .bvh.
     #[arg(long)]
     pub generated: PathBuf,
     /// Directory of ground-truth motions (the normalisation and FID reference set), same format.
@@ -73,9 +74,25 @@ pub struct Args {
     /// Row label of the markdown table.
     #[arg(long, default_value = "generated")]
     pub label: String,
-    /// More logging (-v info, -vv debug).
-    #[arg(short, long, action = clap::ArgAction::Count)]
-    pub verbose: u8,
+    /// Root convention of forward kinematics for .pkl motions (SMPL parameters): smpl (mint, Bailando) or edge.
+    #[arg(long, value_enum, default_value_t = RootArg::Smpl)]
+    pub fk_root: RootArg,
+}
+
+/// Root convention for forward kinematics (SPEC §3.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RootArg {
+    Smpl,
+    Edge,
+}
+
+impl RootArg {
+    pub fn fk(self) -> qean_data::FkRoot {
+        match self {
+            RootArg::Smpl => qean_data::FkRoot::Smpl,
+            RootArg::Edge => qean_data::FkRoot::Edge,
+        }
+    }
 }
 
 impl Args {
@@ -112,8 +129,9 @@ pub fn run(args: &Args) -> anyhow::Result<(EvaluationFile, String)> {
             dir.display()
         );
     }
-    let generated = load_joints_dir(&args.generated).context("loading generated motions")?;
-    let reference = load_joints_dir(&args.reference).context("loading reference motions")?;
+    let root = args.fk_root.fk();
+    let generated = load_joints_dir(&args.generated, root).context("loading generated motions")?;
+    let reference = load_joints_dir(&args.reference, root).context("loading reference motions")?;
     let beats = match &args.beats {
         Some(p) => Some((p.clone(), read_beats_json(p)?)),
         None => None,

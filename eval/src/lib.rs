@@ -17,7 +17,6 @@ pub mod geometric;
 pub mod io;
 pub mod kinetic;
 pub mod normalise;
-pub mod npy;
 pub mod positions;
 pub mod protocol;
 pub mod report;

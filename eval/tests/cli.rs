@@ -124,8 +124,9 @@ fn f32_and_f64_npy_give_the_same_features_to_f32_precision() {
     let j = synthetic_motion(3, 50);
     write_npy(&tmp.path().join("a.npy"), &j, true, false);
     write_npy(&tmp.path().join("b.npy"), &j, false, true);
-    let a = qean_eval::io::read_joints_npy(&tmp.path().join("a.npy")).unwrap();
-    let b = qean_eval::io::read_joints_npy(&tmp.path().join("b.npy")).unwrap();
+    let root = qean_data::FkRoot::Smpl;
+    let a = qean_eval::io::read_joints(&tmp.path().join("a.npy"), root).unwrap();
+    let b = qean_eval::io::read_joints(&tmp.path().join("b.npy"), root).unwrap();
     assert_eq!(b, j);
     assert_eq!(a.len(), 50);
     assert!((a[10][5][1] - j[10][5][1]).abs() < 1e-6);
@@ -149,9 +150,12 @@ fn clear_errors_for_unsupported_inputs() {
     };
     let err = run(&base(&["--music", "/nowhere"])).unwrap_err();
     assert!(format!("{err:#}").contains("--beats"), "{err:#}");
-    std::fs::write(d.join("gen/x.pkl"), b"not read").unwrap();
+    std::fs::write(d.join("gen/x.pkl"), b"not a pickle").unwrap();
     let err = run(&base(&[])).unwrap_err();
-    assert!(format!("{err:#}").contains("x.pkl"), "{err:#}");
+    assert!(
+        format!("{err:#}").contains("x.pkl: not a readable pickle"),
+        "{err:#}"
+    );
     std::fs::remove_file(d.join("gen/x.pkl")).unwrap();
     std::fs::write(d.join("gen/bad.npy"), b"\x93NUMPY\x01\x00garbage").unwrap();
     let err = run(&base(&[])).unwrap_err();

@@ -28,6 +28,8 @@ pub enum Command {
     Joints(data_cmds::JointsArgs),
     Render(data_cmds::RenderArgs),
     Convert(data_cmds::ConvertArgs),
+    /// AIST++ metrics (FID_k, FID_g, Dist_k, Dist_g, BeatAlign); the same as the `qean-eval` binary.
+    Eval(qean_eval::cli::Args),
 }
 
 pub fn init_logging(verbose: u8) {
@@ -52,5 +54,10 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Joints(a) => data_cmds::joints(a),
         Command::Render(a) => data_cmds::render(a),
         Command::Convert(a) => data_cmds::convert(a),
+        Command::Eval(a) => {
+            let (_, table) = qean_eval::cli::run(&a)?;
+            print!("{table}");
+            Ok(())
+        }
     }
 }

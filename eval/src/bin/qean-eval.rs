@@ -2,10 +2,24 @@
 
 use clap::Parser;
 
+#[derive(Parser)]
+#[command(
+    name = "qean-eval",
+    version,
+    about = "AIST++ dance metrics: FID_k, FID_g, Dist_k, Dist_g, BeatAlign"
+)]
+struct Cli {
+    #[command(flatten)]
+    args: qean_eval::cli::Args,
+    /// More logging (-v info, -vv debug).
+    #[arg(short, long, action = clap::ArgAction::Count)]
+    verbose: u8,
+}
+
 fn main() {
-    let args = qean_eval::cli::Args::parse();
-    qean_eval::cli::init_logging(args.verbose);
-    match qean_eval::cli::run(&args) {
+    let cli = Cli::parse();
+    qean_eval::cli::init_logging(cli.verbose);
+    match qean_eval::cli::run(&cli.args) {
         Ok((_, table)) => print!("{table}"),
         Err(e) => {
             eprintln!("error: {e:#}");
