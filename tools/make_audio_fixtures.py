@@ -7,6 +7,7 @@ Reference: librosa 0.8.1 + resampy 0.2.2 (install into a venv outside the repo, 
         six setuptools soundfile
 Run from the repo root:
     /work/venv-librosa/bin/python tools/make_audio_fixtures.py [MUSIC_DIR] [OUT_DIR] [DEBUG_DIR]
+    /work/venv-librosa/bin/python tools/make_audio_fixtures.py --formats-only [MUSIC_DIR] [OUT_DIR]
 MUSIC_DIR defaults to ../shared/data/music, OUT_DIR to data/tests/fixtures/audio. DEBUG_DIR (optional, not
 committed) receives large intermediates (resampled signals, CQT magnitudes).
 The feature assembly follows mint's tools/preprocessing.py (cache_audio_features).
@@ -125,5 +126,63 @@ def main():
         json.dump(banks, f)
 
 
+# Small decoding fixtures (0.5 s excerpts of the trumpet loop) in every container/sample format we read.
+FORMATS = [
+    # name, container, subtype, rate, channels
+    ("u8_mono_11025.wav", "WAV", "PCM_U8", 11025, 1),
+    ("s16_stereo_48000.wav", "WAV", "PCM_16", 48000, 2),
+    ("s24_mono_44100.wav", "WAV", "PCM_24", 44100, 1),
+    ("s32_mono_32000.wav", "WAV", "PCM_32", 32000, 1),
+    ("f32_stereo_22050.wav", "WAV", "FLOAT", 22050, 2),
+    ("f64_mono_30720.wav", "WAV", "DOUBLE", 30720, 1),
+    ("s16_6ch_16000.wav", "WAV", "PCM_16", 16000, 6),
+    ("flac_stereo_44100.flac", "FLAC", "PCM_16", 44100, 2),
+    ("vorbis_stereo_44100.ogg", "OGG", "VORBIS", 44100, 2),
+    ("mp3_mono_44100.mp3", "MP3", "MPEG_LAYER_III", 44100, 1),
+]
+
+
+def make_format_fixtures(music, out):
+    src, _ = soundfile.read(os.path.join(music, "sorohanro_-_solo-trumpet-06_90bpm.wav"), dtype="float64")
+    os.makedirs(os.path.join(out, "formats"), exist_ok=True)
+    meta = {}
+    for name, container, subtype, rate, ch in FORMATS:
+        n = rate // 2
+        x = src[20000: 20000 + n]
+        chans = [x * (0.9 - 0.1 * c) if c % 2 == 0 else np.roll(x, 37 * c) * 0.6 for c in range(ch)]
+        data = np.stack(chans, axis=1) if ch > 1 else x
+        path = os.path.join(out, "formats", name)
+        soundfile.write(path, data, rate, subtype=subtype, format=container)
+        native, sr_native = soundfile.read(path, dtype="float32", always_2d=True)
+        mono = librosa.to_mono(native.T) if native.shape[1] > 1 else native[:, 0]
+        y, _ = librosa.load(path, sr=SR)
+        feat, env, peaks, tempo, beats = features(y, 120.0)
+        meta[name] = {
+            "rate": int(sr_native),
+            "channels": int(native.shape[1]),
+            "frames": int(native.shape[0]),
+            "mono_head": [float(v) for v in mono[:32]],
+            "mono_sum_sq": float(np.sum(mono.astype(np.float64) ** 2)),
+            "resampled_len": int(len(y)),
+            "resampled_stride97": [float(v) for v in y[::97]],
+            "resampled_sum_sq": float(np.sum(y.astype(np.float64) ** 2)),
+            "feat35": [[float(v) for v in row] for row in feat],
+            "tempo": tempo,
+            "beats": [int(b) for b in beats],
+            "onsets": [int(p) for p in peaks],
+        }
+        print(name, native.shape, sr_native, len(y), feat.shape)
+    with open(os.path.join(out, "formats.json"), "w") as f:
+        json.dump(meta, f)
+    # A codec we do not decode (Opus in Ogg): must be rejected with a clear error.
+    soundfile.write(os.path.join(out, "unsupported_opus.ogg"), src[:4800], 48000, format="OGG", subtype="OPUS")
+
+
 if __name__ == "__main__":
-    main()
+    if len(sys.argv) > 1 and sys.argv[1] == "--formats-only":
+        make_format_fixtures(sys.argv[2] if len(sys.argv) > 2 else "../shared/data/music",
+                             sys.argv[3] if len(sys.argv) > 3 else "data/tests/fixtures/audio")
+    else:
+        main()
+        make_format_fixtures(sys.argv[1] if len(sys.argv) > 1 else "../shared/data/music",
+                             sys.argv[2] if len(sys.argv) > 2 else "data/tests/fixtures/audio")

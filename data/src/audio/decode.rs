@@ -2,8 +2,11 @@
 //! (PCM16/32768 etc., as libsndfile gives them), channels averaged, resampled with resampy 0.2.2.
 
 use std::fs::File;
+use std::io::{Read, Seek, SeekFrom};
+use std::panic::AssertUnwindSafe;
 use std::path::Path;
 
+use symphonia::core::codecs::audio::well_known::CODEC_ID_MP3;
 use symphonia::core::codecs::audio::AudioDecoderOptions;
 use symphonia::core::errors::Error as SymError;
 use symphonia::core::formats::probe::Hint;
@@ -73,13 +76,72 @@ fn sym_err(path: &Path, what: &str, e: SymError) -> Error {
     Error::at(path, msg)
 }
 
-/// Decode a file to mono float32 at its own rate (channels averaged, librosa `to_mono`).
+/// Check a RIFF/WAVE `fmt ` chunk before symphonia sees it: some absurd values (e.g. 60000 channels)
+/// overflow inside its WAV reader.
+fn precheck_wav(path: &Path, file: &mut File) -> Result<()> {
+    let mut head = [0u8; 12];
+    let n = file.read(&mut head).map_err(|e| Error::io(path, e))?;
+    file.seek(SeekFrom::Start(0))
+        .map_err(|e| Error::io(path, e))?;
+    if n < 12 || &head[..4] != b"RIFF" || &head[8..12] != b"WAVE" {
+        return Ok(());
+    }
+    let mut pos = 12u64;
+    for _ in 0..64 {
+        let mut ch = [0u8; 8];
+        file.seek(SeekFrom::Start(pos))
+            .map_err(|e| Error::io(path, e))?;
+        if file.read_exact(&mut ch).is_err() {
+            break;
+        }
+        let size = u32::from_le_bytes([ch[4], ch[5], ch[6], ch[7]]) as u64;
+        if &ch[..4] == b"fmt " {
+            let mut fmt = [0u8; 16];
+            if file.read_exact(&mut fmt).is_err() {
+                break;
+            }
+            let channels = u16::from_le_bytes([fmt[2], fmt[3]]) as usize;
+            let rate = u32::from_le_bytes([fmt[4], fmt[5], fmt[6], fmt[7]]);
+            if channels == 0 || channels > MAX_CHANNELS {
+                return Err(Error::at(
+                    path,
+                    format!("implausible channel count {channels}"),
+                ));
+            }
+            if rate == 0 || rate > MAX_RATE {
+                return Err(Error::at(
+                    path,
+                    format!("implausible sample rate {rate} Hz"),
+                ));
+            }
+            break;
+        }
+        pos += 8 + size + (size & 1);
+    }
+    file.seek(SeekFrom::Start(0))
+        .map_err(|e| Error::io(path, e))?;
+    Ok(())
+}
+
+/// Decode a file to mono float32 at its own rate (channels averaged, librosa `to_mono`). A panic inside
+/// the third-party decoder becomes an error naming the file.
 pub fn decode_file(path: &Path, max_seconds: f64) -> Result<Decoded> {
-    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    match std::panic::catch_unwind(AssertUnwindSafe(|| decode_inner(path, max_seconds))) {
+        Ok(r) => r,
+        Err(_) => Err(Error::at(
+            path,
+            "the decoder failed on this file (malformed or unsupported data)",
+        )),
+    }
+}
+
+fn decode_inner(path: &Path, max_seconds: f64) -> Result<Decoded> {
+    let mut file = File::open(path).map_err(|e| Error::io(path, e))?;
     let byte_len = file.metadata().map_err(|e| Error::io(path, e))?.len();
     if byte_len == 0 {
         return Err(Error::at(path, "empty file (0 bytes)"));
     }
+    precheck_wav(path, &mut file)?;
     let mss = MediaSourceStream::new(Box::new(file), Default::default());
     let mut hint = Hint::new();
     if let Some(ext) = path.extension().and_then(|e| e.to_str()) {
@@ -93,9 +155,12 @@ pub fn decode_file(path: &Path, max_seconds: f64) -> Result<Decoded> {
             MetadataOptions::default(),
         )
         .map_err(|e| match e {
-            SymError::Unsupported(_) => Error::at(
+            SymError::Unsupported(m) => Error::at(
                 path,
-                "not a supported audio file (expected WAV, OGG Vorbis, MP3 or FLAC)",
+                format!(
+                    "unsupported or unrecognised audio format ({m}); expected WAV (PCM or float), \
+                     OGG Vorbis, MP3 or FLAC"
+                ),
             ),
             other => sym_err(path, "cannot read the container", other),
         })?;
@@ -103,6 +168,7 @@ pub fn decode_file(path: &Path, max_seconds: f64) -> Result<Decoded> {
         .default_track(TrackType::Audio)
         .ok_or_else(|| Error::at(path, "no audio track"))?;
     let track_id = track.id;
+    let header_frames = track.num_frames;
     let params = track
         .codec_params
         .as_ref()
@@ -110,6 +176,8 @@ pub fn decode_file(path: &Path, max_seconds: f64) -> Result<Decoded> {
         .ok_or_else(|| Error::at(path, "the audio track has no codec parameters"))?
         .clone();
     let header_rate = params.sample_rate;
+    // MP3 frame counts in headers are estimates; the other containers state them exactly.
+    let exact_count = params.codec != CODEC_ID_MP3;
     if let Some(r) = header_rate {
         if r == 0 || r > MAX_RATE {
             return Err(Error::at(path, format!("implausible sample rate {r} Hz")));
@@ -126,9 +194,9 @@ pub fn decode_file(path: &Path, max_seconds: f64) -> Result<Decoded> {
     let mut decoder = symphonia::default::get_codecs()
         .make_audio_decoder(&params, &AudioDecoderOptions::default())
         .map_err(|e| match e {
-            SymError::Unsupported(_) => Error::at(
+            SymError::Unsupported(m) => Error::at(
                 path,
-                "unsupported audio codec (expected PCM, Vorbis, MP3 or FLAC)",
+                format!("unsupported audio codec ({m}); expected PCM, Vorbis, MP3 or FLAC"),
             ),
             other => sym_err(path, "cannot open the decoder", other),
         })?;
@@ -198,7 +266,7 @@ pub fn decode_file(path: &Path, max_seconds: f64) -> Result<Decoded> {
         if ch == 1 {
             mono.extend_from_slice(&planes[0][..frames]);
         } else {
-            // numpy's float32 mean over channels: pairwise-free for small counts, sum then divide.
+            // librosa `to_mono`: numpy's float32 mean over channels (sum in f32, then divide).
             let inv = ch as f32;
             for i in 0..frames {
                 let mut s = 0.0f32;
@@ -220,6 +288,17 @@ pub fn decode_file(path: &Path, max_seconds: f64) -> Result<Decoded> {
     };
     if mono.is_empty() {
         return Err(Error::at(path, "no audio samples"));
+    }
+    if let Some(n) = header_frames.filter(|_| exact_count) {
+        if (mono.len() as u64) < n {
+            return Err(Error::at(
+                path,
+                format!(
+                    "truncated or corrupt: the header announces {n} samples per channel, only {} decode",
+                    mono.len()
+                ),
+            ));
+        }
     }
     if let Some(i) = mono.iter().position(|v| !v.is_finite()) {
         return Err(Error::at(
