@@ -6,7 +6,7 @@ use realfft::num_complex::Complex64;
 use rustfft::FftPlanner;
 
 use super::resample::{resample, Resampler};
-use super::stft::{hann_periodic, reflect_pad, Fft, Spectrogram};
+use super::stft::{hann_periodic, map_frames, Spectrogram};
 use crate::error::{Error, Result};
 
 /// librosa's `WINDOW_BANDWIDTHS['hann']`.
@@ -109,28 +109,19 @@ fn sparsify(row: &[Complex64], quantile: f64, gain: f64) -> Vec<(usize, Complex6
 
 /// `__cqt_response`: |basis · STFT(y, n_fft, hop, window=ones, reflect)|, frame-major (frames × filters).
 fn response(y: &[f64], hop: usize, basis: &OctaveBasis) -> Spectrogram {
-    let n_fft = basis.n_fft;
-    let padded = reflect_pad(y, n_fft / 2);
-    let n_frames = 1 + (padded.len() - n_fft) / hop;
     let n_rows = basis.rows.len();
-    let fft = Fft::new(n_fft);
-    let mut scratch = fft.scratch();
-    let mut buf = vec![0.0; n_fft];
-    let mut spec = vec![Complex64::new(0.0, 0.0); n_fft / 2 + 1];
-    let mut data = Vec::with_capacity(n_frames * n_rows);
-    for t in 0..n_frames {
-        buf.copy_from_slice(&padded[t * hop..t * hop + n_fft]);
-        fft.forward(&mut buf, &mut spec, &mut scratch);
-        for row in &basis.rows {
+    let ones = vec![1.0; basis.n_fft];
+    let data = map_frames(y, basis.n_fft, hop, &ones, n_rows, |spec, out| {
+        for (o, row) in out.iter_mut().zip(&basis.rows) {
             let mut acc = Complex64::new(0.0, 0.0);
             for &(i, w) in row {
                 acc += w * spec[i];
             }
-            data.push(acc.norm());
+            *o = acc.norm();
         }
-    }
+    });
     Spectrogram {
-        n_frames,
+        n_frames: data.len() / n_rows,
         n_bins: n_rows,
         data,
     }

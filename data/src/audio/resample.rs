@@ -9,6 +9,8 @@ use std::fmt;
 use std::str::FromStr;
 use std::sync::OnceLock;
 
+use rayon::prelude::*;
+
 use crate::error::{Error, Result};
 
 /// Which resampy 0.2.2 filter to use.
@@ -128,6 +130,11 @@ pub fn resampy(x: &[f64], sr_in: f64, sr_out: f64, filter: Resampler) -> Result<
         )));
     }
     let ratio = sr_out / sr_in;
+    if ratio < 1.0 / PRECISION as f64 {
+        return Err(Error::msg(format!(
+            "cannot downsample by more than {PRECISION}x ({sr_in} -> {sr_out} Hz)"
+        )));
+    }
     let n_out = resampy_len(x.len(), sr_in, sr_out);
     if n_out < 1 {
         return Err(Error::msg(format!(
@@ -163,32 +170,88 @@ pub fn resampy(x: &[f64], sr_in: f64, sr_out: f64, filter: Resampler) -> Result<
         time_register += time_increment;
     }
 
-    let one = |time_register: f64| -> f64 {
+    // Products in resampy's accumulation order (left wing i = 0.., then right wing k = 0..); the sum is
+    // then rounded to f32 after every addition. Four outputs are accumulated in lockstep so the serial
+    // rounding chains overlap; each output's own order is unchanged, so the result is identical.
+    // Polyphase layout: row o holds (win, delta)[o + i·step] for i = 0.., so each wing reads contiguously.
+    let row = nwin / index_step + 1;
+    let mut poly = vec![(0.0f64, 0.0f64); (index_step + 1) * row];
+    for o in 0..=index_step {
+        for i in 0..row {
+            let k = o + i * index_step;
+            if k < nwin {
+                poly[o * row + i] = (win[k], delta[k]);
+            }
+        }
+    }
+    let fill = |time_register: f64, p: &mut Vec<f64>| {
+        p.clear();
         let n = time_register as usize;
         let mut frac = scale * (time_register - n as f64);
         let mut index_frac = frac * num_table;
         let mut offset = index_frac as usize;
         let mut eta = index_frac - offset as f64;
-        let mut acc = 0.0f32;
         let i_max = (n + 1).min((nwin - offset) / index_step);
-        for i in 0..i_max {
-            let k = offset + i * index_step;
-            let weight = win[k] + eta * delta[k];
-            acc = (acc as f64 + weight * xf[n - i] as f64) as f32;
-        }
+        let taps = &poly[offset * row..offset * row + i_max];
+        let xs = &xf[n + 1 - i_max..=n];
+        p.extend(
+            taps.iter()
+                .zip(xs.iter().rev())
+                .map(|(&(w, d), &x)| (w + eta * d) * x as f64),
+        );
         frac = scale - frac;
         index_frac = frac * num_table;
         offset = index_frac as usize;
         eta = index_frac - offset as f64;
         let k_max = (n_orig.saturating_sub(n + 1)).min((nwin - offset) / index_step);
-        for k in 0..k_max {
-            let j = offset + k * index_step;
-            let weight = win[j] + eta * delta[j];
-            acc = (acc as f64 + weight * xf[n + k + 1] as f64) as f32;
-        }
-        acc as f64
+        let taps = &poly[offset * row..offset * row + k_max];
+        let xs = &xf[n + 1..n + 1 + k_max];
+        p.extend(
+            taps.iter()
+                .zip(xs)
+                .map(|(&(w, d), &x)| (w + eta * d) * x as f64),
+        );
     };
-    Ok(registers.into_iter().map(one).collect())
+    let mut out = vec![0.0f64; n_out];
+    out.par_chunks_mut(4096)
+        .zip(registers.par_chunks(4096))
+        .for_each(|(out, regs)| {
+            let cap = 2 * (nwin / index_step + 2);
+            let mut p: [Vec<f64>; 4] = std::array::from_fn(|_| Vec::with_capacity(cap));
+            for (o4, r4) in out.chunks_mut(4).zip(regs.chunks(4)) {
+                for (pj, &r) in p.iter_mut().zip(r4) {
+                    fill(r, pj);
+                }
+                let m = r4.len();
+                let common = p[..m].iter().map(|v| v.len()).min().unwrap_or(0);
+                let mut acc = [0.0f32; 4];
+                if m == 4 {
+                    let (p0, p1) = (&p[0][..common], &p[1][..common]);
+                    let (p2, p3) = (&p[2][..common], &p[3][..common]);
+                    let (mut a0, mut a1, mut a2, mut a3) = (0f32, 0f32, 0f32, 0f32);
+                    for idx in 0..common {
+                        a0 = (a0 as f64 + p0[idx]) as f32;
+                        a1 = (a1 as f64 + p1[idx]) as f32;
+                        a2 = (a2 as f64 + p2[idx]) as f32;
+                        a3 = (a3 as f64 + p3[idx]) as f32;
+                    }
+                    acc = [a0, a1, a2, a3];
+                } else {
+                    for (a, pj) in acc.iter_mut().zip(&p[..m]) {
+                        for &v in &pj[..common] {
+                            *a = (*a as f64 + v) as f32;
+                        }
+                    }
+                }
+                for j in 0..m {
+                    for &v in &p[j][common..] {
+                        acc[j] = (acc[j] as f64 + v) as f32;
+                    }
+                    o4[j] = acc[j] as f64;
+                }
+            }
+        });
+    Ok(out)
 }
 
 /// librosa 0.8.1 `resample(y, sr_in, sr_out, res_type, fix=True, scale)`: resampy, then zero-pad or trim

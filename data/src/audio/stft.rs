@@ -3,6 +3,8 @@
 
 use std::sync::Arc;
 
+use rayon::prelude::*;
+
 use realfft::num_complex::Complex64;
 use realfft::{RealFftPlanner, RealToComplex};
 
@@ -136,13 +138,59 @@ pub fn stft(y: &[f64], n_fft: usize, hop: usize, window: &[f64]) -> ComplexStft 
     }
 }
 
+/// Frames per parallel work item.
+const FRAMES_PER_TASK: usize = 64;
+
+/// Apply `f(spectrum, out_row)` to every centred frame of `y` (reflect padding, `window`), in parallel;
+/// `out` is frame-major with rows of `row_len`. Only one spectrum per thread lives at a time.
+pub fn map_frames<F>(
+    y: &[f64],
+    n_fft: usize,
+    hop: usize,
+    window: &[f64],
+    row_len: usize,
+    f: F,
+) -> Vec<f64>
+where
+    F: Fn(&[Complex64], &mut [f64]) + Sync,
+{
+    assert_eq!(window.len(), n_fft);
+    assert!(!y.is_empty() && hop > 0);
+    let padded = reflect_pad(y, n_fft / 2);
+    let n_frames = 1 + (padded.len() - n_fft) / hop;
+    let fft = Fft::new(n_fft);
+    let mut out = vec![0.0; n_frames * row_len];
+    out.par_chunks_mut(row_len * FRAMES_PER_TASK)
+        .enumerate()
+        .for_each(|(c, chunk)| {
+            let mut buf = vec![0.0; n_fft];
+            let mut spec = vec![Complex64::new(0.0, 0.0); n_fft / 2 + 1];
+            let mut scratch = fft.scratch();
+            for (i, row) in chunk.chunks_exact_mut(row_len).enumerate() {
+                let t = c * FRAMES_PER_TASK + i;
+                let frame = &padded[t * hop..t * hop + n_fft];
+                for ((b, &x), &w) in buf.iter_mut().zip(frame).zip(window) {
+                    *b = x * w;
+                }
+                fft.forward(&mut buf, &mut spec, &mut scratch);
+                f(&spec, row);
+            }
+        });
+    out
+}
+
 /// |STFT|² with the periodic Hann window (librosa `melspectrogram`'s `power=2` spectrogram).
 pub fn power_spectrogram(y: &[f64], n_fft: usize, hop: usize) -> Spectrogram {
-    let s = stft(y, n_fft, hop, &hann_periodic(n_fft));
+    let n_bins = n_fft / 2 + 1;
+    let data = map_frames(y, n_fft, hop, &hann_periodic(n_fft), n_bins, |spec, row| {
+        for (r, c) in row.iter_mut().zip(spec) {
+            *r = c.norm_sqr();
+        }
+    });
     Spectrogram {
-        n_frames: s.n_frames,
-        n_bins: s.n_bins,
-        data: s.data.iter().map(|c| c.norm_sqr()).collect(),
+        n_frames: data.len() / n_bins,
+        n_bins,
+        data,
     }
 }
 
