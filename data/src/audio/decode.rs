@@ -23,7 +23,8 @@ use crate::error::{Error, Result};
 pub struct LoadOptions {
     /// Resampling filter (default kaiser_best, librosa.load's default).
     pub resampler: Resampler,
-    /// Refuse streams longer than this (seconds): a guard against absurd headers and decompression bombs.
+    /// Refuse streams longer than this (seconds; default 30 min): a guard against absurd headers and
+    /// decompression bombs, and against feature matrices that would not fit in memory.
     pub max_seconds: f64,
 }
 
@@ -31,7 +32,7 @@ impl Default for LoadOptions {
     fn default() -> Self {
         LoadOptions {
             resampler: Resampler::KaiserBest,
-            max_seconds: 3.0 * 3600.0,
+            max_seconds: 30.0 * 60.0,
         }
     }
 }

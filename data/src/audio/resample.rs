@@ -171,7 +171,7 @@ pub fn resampy(x: &[f64], sr_in: f64, sr_out: f64, filter: Resampler) -> Result<
     }
 
     // Products in resampy's accumulation order (left wing i = 0.., then right wing k = 0..); the sum is
-    // then rounded to f32 after every addition. Four outputs are accumulated in lockstep so the serial
+    // then rounded to f32 after every addition. Eight outputs are accumulated in lockstep so the serial
     // rounding chains overlap; each output's own order is unchanged, so the result is identical.
     // Polyphase layout: row o holds (win, delta)[o + i·step] for i = 0.., so each wing reads contiguously.
     let row = nwin / index_step + 1;
@@ -212,34 +212,32 @@ pub fn resampy(x: &[f64], sr_in: f64, sr_out: f64, filter: Resampler) -> Result<
                 .map(|(&(w, d), &x)| (w + eta * d) * x as f64),
         );
     };
+    const G: usize = 8;
     let mut out = vec![0.0f64; n_out];
     out.par_chunks_mut(4096)
         .zip(registers.par_chunks(4096))
         .for_each(|(out, regs)| {
             let cap = 2 * (nwin / index_step + 2);
-            let mut p: [Vec<f64>; 4] = std::array::from_fn(|_| Vec::with_capacity(cap));
-            for (o4, r4) in out.chunks_mut(4).zip(regs.chunks(4)) {
-                for (pj, &r) in p.iter_mut().zip(r4) {
+            let mut p: [Vec<f64>; G] = std::array::from_fn(|_| Vec::with_capacity(cap));
+            // The common prefix of the G product lists, interleaved: q[idx·G + j].
+            let mut q = vec![0.0f64; cap * G];
+            for (og, rg) in out.chunks_mut(G).zip(regs.chunks(G)) {
+                for (pj, &r) in p.iter_mut().zip(rg) {
                     fill(r, pj);
                 }
-                let m = r4.len();
-                let common = p[..m].iter().map(|v| v.len()).min().unwrap_or(0);
-                let mut acc = [0.0f32; 4];
-                if m == 4 {
-                    let (p0, p1) = (&p[0][..common], &p[1][..common]);
-                    let (p2, p3) = (&p[2][..common], &p[3][..common]);
-                    let (mut a0, mut a1, mut a2, mut a3) = (0f32, 0f32, 0f32, 0f32);
-                    for idx in 0..common {
-                        a0 = (a0 as f64 + p0[idx]) as f32;
-                        a1 = (a1 as f64 + p1[idx]) as f32;
-                        a2 = (a2 as f64 + p2[idx]) as f32;
-                        a3 = (a3 as f64 + p3[idx]) as f32;
+                let m = rg.len();
+                let mut acc = [0.0f32; G];
+                let mut common = 0;
+                if m == G {
+                    common = p.iter().map(|v| v.len()).min().unwrap_or(0);
+                    for (j, pj) in p.iter().enumerate() {
+                        for (idx, &v) in pj[..common].iter().enumerate() {
+                            q[idx * G + j] = v;
+                        }
                     }
-                    acc = [a0, a1, a2, a3];
-                } else {
-                    for (a, pj) in acc.iter_mut().zip(&p[..m]) {
-                        for &v in &pj[..common] {
-                            *a = (*a as f64 + v) as f32;
+                    for step in q[..common * G].chunks_exact(G) {
+                        for j in 0..G {
+                            acc[j] = (acc[j] as f64 + step[j]) as f32;
                         }
                     }
                 }
@@ -247,7 +245,7 @@ pub fn resampy(x: &[f64], sr_in: f64, sr_out: f64, filter: Resampler) -> Result<
                     for &v in &p[j][common..] {
                         acc[j] = (acc[j] as f64 + v) as f32;
                     }
-                    o4[j] = acc[j] as f64;
+                    og[j] = acc[j] as f64;
                 }
             }
         });
