@@ -314,3 +314,61 @@ fn bad_inputs_are_clear_errors() {
     let s = expect_err(&write(d, "tiny.wav", &pcm16_wav(22050, 1, &[0.1; 100])));
     assert!(s.contains("too short"), "{s}");
 }
+
+#[test]
+fn length_cap_is_enforced() {
+    let path = fixture_dir().join("formats/s16_stereo_48000.wav");
+    let e = decode_file(&path, 0.1).unwrap_err();
+    assert!(e.to_string().contains("longer than the limit"), "{e}");
+    assert!(decode_file(&path, 1.0).is_ok());
+}
+
+#[test]
+fn mutated_files_never_panic() {
+    // Deterministic byte flips and cuts of every format fixture: each call returns Ok or a clear Err.
+    let dir = tempfile::tempdir().unwrap();
+    let mut state = 0x9e3779b97f4a7c15u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    let mut n_err = 0;
+    let mut n_ok = 0;
+    for entry in std::fs::read_dir(fixture_dir().join("formats")).unwrap() {
+        let src = entry.unwrap().path();
+        let bytes = std::fs::read(&src).unwrap();
+        let ext = src.extension().unwrap().to_string_lossy().to_string();
+        for k in 0..8 {
+            let mut b = bytes.clone();
+            if k % 2 == 0 {
+                // Flip a few bytes, often inside the header.
+                for _ in 0..4 {
+                    let limit = if next() % 2 == 0 {
+                        64.min(b.len())
+                    } else {
+                        b.len()
+                    };
+                    let i = (next() as usize) % limit;
+                    b[i] ^= (next() as u8) | 1;
+                }
+            } else {
+                b.truncate((next() as usize) % b.len());
+            }
+            let p = write(dir.path(), &format!("m{k}.{ext}"), &b);
+            match audio::features_for_file(&p, &FeatureOptions::default()) {
+                Ok(f) => {
+                    assert!(f.data.iter().all(|v| v.is_finite()));
+                    n_ok += 1;
+                }
+                Err(e) => {
+                    assert_eq!(e.path.as_deref(), Some(p.as_path()));
+                    n_err += 1;
+                }
+            }
+        }
+    }
+    println!("mutations: {n_ok} accepted, {n_err} rejected");
+    assert!(n_err > 0);
+}

@@ -2,6 +2,17 @@
 //!
 //! Everything reproduces librosa 0.8.1 with resampy 0.2.2 ("0.8.1 semantics", SPEC §0): the numerical
 //! pipeline runs in f64, the feature matrix comes out as f32.
+//!
+//! - [`load_audio`]: symphonia decoding (WAV PCM 8/16/24/32 and float, OGG Vorbis, MP3, FLAC; any
+//!   channel count, averaged), then `librosa.load(sr=30720)` resampling ([`Resampler`], bit-exact with
+//!   resampy 0.2.2 on float32 input).
+//! - [`music_features`] / [`features_for_file`]: the 35-D matrix ([`MusicFeatures`]), with
+//!   [`FeatureOptions::for_name`] taking the AIST++ tempo prior from a music or sequence name.
+//! - Building blocks for other metrics: [`onset_strength`], [`onset_detect`], [`beats::beat_track`],
+//!   [`hpss::bailando_beats`] (BeatAlign's music beats).
+//!
+//! Parity with librosa 0.8.1 is tested in `data/tests/audio_parity.rs` on fixtures made by
+//! `tools/make_audio_fixtures.py`.
 
 pub mod beat;
 pub mod chroma;
