@@ -1,0 +1,163 @@
+//! Harmonic/percussive separation and Bailando's music beats (SPEC §2.6, used by BeatAlign):
+//! librosa 0.8.1 `effects.hpss` (`decompose.hpss` defaults: kernel 31, power 2, margin 1) with `istft`,
+//! then `onset_strength(aggregate=np.median)` and `beat_track(start_bpm=120)`.
+
+use rayon::prelude::*;
+use realfft::num_complex::Complex64;
+use realfft::RealFftPlanner;
+
+use super::beat::{beat_track, BeatTrack};
+use super::onset::{onset_strength, Aggregate};
+use super::stft::{hann_periodic, stft, ComplexStft};
+use super::{HOP, N_FFT};
+
+const KERNEL: usize = 31;
+
+/// scipy.ndimage 'reflect' (half-sample symmetric: d c b a | a b c d | d c b a).
+fn sym_index(i: isize, n: usize) -> usize {
+    let p = 2 * n as isize;
+    let j = i.rem_euclid(p);
+    if j >= n as isize {
+        (p - 1 - j) as usize
+    } else {
+        j as usize
+    }
+}
+
+/// Sliding median of width `KERNEL` (centred, scipy 'reflect' boundary) of a strided line.
+fn median_line(get: impl Fn(usize) -> f64, n: usize, out: &mut [f64]) {
+    let h = (KERNEL / 2) as isize;
+    let mut win = [0.0; KERNEL];
+    for (i, o) in out.iter_mut().enumerate().take(n) {
+        for (k, w) in win.iter_mut().enumerate() {
+            *w = get(sym_index(i as isize + k as isize - h, n));
+        }
+        let (_, m, _) = win.select_nth_unstable_by(KERNEL / 2, |a, b| a.total_cmp(b));
+        *o = *m;
+    }
+}
+
+/// Percussive part of `y` (librosa 0.8.1 `effects.hpss(y)[1]`), same length as `y`.
+pub fn percussive(y: &[f64]) -> Vec<f64> {
+    let d = stft(y, N_FFT, HOP, &hann_periodic(N_FFT));
+    let (nf, nb) = (d.n_frames, d.n_bins);
+    let mag: Vec<f64> = d.data.iter().map(|c| c.norm()).collect();
+    // Harmonic: median over time per bin. Percussive: median over bins per frame.
+    let mut harm_t = vec![0.0; nb * nf]; // bin-major
+    harm_t
+        .par_chunks_mut(nf)
+        .enumerate()
+        .for_each(|(k, out)| median_line(|t| mag[t * nb + k], nf, out));
+    let mut perc = vec![0.0; nf * nb]; // frame-major
+    perc.par_chunks_mut(nb)
+        .enumerate()
+        .for_each(|(t, out)| median_line(|k| mag[t * nb + k], nb, out));
+    // Soft mask perc²/(perc² + harm²), 0.5 where both vanish (split_zeros).
+    let tiny = f32::MIN_POSITIVE as f64;
+    let mut masked = d.data.clone();
+    for t in 0..nf {
+        for k in 0..nb {
+            let (p, h) = (perc[t * nb + k], harm_t[k * nf + t]);
+            let z = p.max(h);
+            let m = if z < tiny {
+                0.5
+            } else {
+                let (a, b) = ((p / z).powi(2), (h / z).powi(2));
+                a / (a + b)
+            };
+            masked[t * nb + k] *= m;
+        }
+    }
+    let spec = ComplexStft { data: masked, ..d };
+    let mut out = istft(&spec);
+    out.resize(y.len(), 0.0);
+    out
+}
+
+/// librosa 0.8.1 `istft(stft, hop_length=512, window='hann', center=True)`: windowed overlap-add divided
+/// by the window's summed squares, centre padding removed.
+pub fn istft(d: &ComplexStft) -> Vec<f64> {
+    let n_fft = d.n_fft;
+    let hop = d.hop;
+    let win = hann_periodic(n_fft);
+    let len = n_fft + hop * (d.n_frames - 1);
+    let mut y = vec![0.0; len];
+    let mut wss = vec![0.0; len];
+    let inv = RealFftPlanner::<f64>::new().plan_fft_inverse(n_fft);
+    let mut scratch = inv.make_scratch_vec();
+    let mut spec = vec![Complex64::new(0.0, 0.0); d.n_bins];
+    let mut frame = vec![0.0; n_fft];
+    for t in 0..d.n_frames {
+        spec.copy_from_slice(&d.data[t * d.n_bins..(t + 1) * d.n_bins]);
+        // numpy's irfft ignores the imaginary parts of the DC and Nyquist bins.
+        spec[0].im = 0.0;
+        spec[d.n_bins - 1].im = 0.0;
+        inv.process_with_scratch(&mut spec, &mut frame, &mut scratch)
+            .expect("fixed sizes");
+        let o = t * hop;
+        for i in 0..n_fft {
+            y[o + i] += win[i] * frame[i] / n_fft as f64;
+            wss[o + i] += win[i] * win[i];
+        }
+    }
+    let tiny = f32::MIN_POSITIVE as f64;
+    for (v, w) in y.iter_mut().zip(&wss) {
+        if *w > tiny {
+            *v /= w;
+        }
+    }
+    y[n_fft / 2..len - n_fft / 2].to_vec()
+}
+
+/// Bailando's music beats on a 30720 Hz signal: HPSS-percussive, median onset strength, beat_track at
+/// start_bpm 120, tightness 100.
+pub fn bailando_beats(y: &[f64], sr: f64) -> BeatTrack {
+    let perc = percussive(y);
+    let env = onset_strength(&perc, sr, Aggregate::Median);
+    beat_track(&env, sr, HOP, 120.0, 100.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn istft_inverts_stft() {
+        let y: Vec<f64> = (0..20000)
+            .map(|i| ((i as f64) * 0.013).sin() + 0.3 * ((i as f64) * 0.2).cos())
+            .collect();
+        let d = stft(&y, N_FFT, HOP, &hann_periodic(N_FFT));
+        let z = istft(&d);
+        assert_eq!(z.len(), HOP * (d.n_frames - 1));
+        for i in 0..z.len().min(y.len()) {
+            assert!((z[i] - y[i]).abs() < 1e-9, "{i}");
+        }
+    }
+
+    #[test]
+    fn clicks_are_percussive_and_a_tone_is_not() {
+        let sr = 30720.0;
+        let n = 30720 * 2;
+        let tone: Vec<f64> = (0..n)
+            .map(|i| 0.5 * (2.0 * std::f64::consts::PI * 440.0 * i as f64 / sr).sin())
+            .collect();
+        let p = percussive(&tone);
+        let e_tone: f64 = tone[5000..55000].iter().map(|v| v * v).sum();
+        let e_perc: f64 = p[5000..55000].iter().map(|v| v * v).sum();
+        assert!(e_perc < 0.01 * e_tone, "{e_perc} vs {e_tone}");
+        let mut clicks = vec![0.0; n];
+        for k in (1000..n).step_by(15360) {
+            clicks[k] = 1.0;
+        }
+        let pc = percussive(&clicks);
+        let e_c: f64 = clicks.iter().map(|v| v * v).sum();
+        let e_pc: f64 = pc.iter().map(|v| v * v).sum();
+        assert!(e_pc > 0.5 * e_c, "{e_pc} vs {e_c}");
+    }
+
+    #[test]
+    fn sym_index_is_half_sample_symmetric() {
+        let got: Vec<usize> = (-3..7).map(|i| sym_index(i, 4)).collect();
+        assert_eq!(got, vec![2, 1, 0, 0, 1, 2, 3, 3, 2, 1]);
+    }
+}
