@@ -198,6 +198,7 @@ fn resampy_impl(
     }
     // The two wings of output at `time_register`: (table row start, eta, taps) for the left wing (read
     // backwards from x[n]) and the right wing (forwards from x[n + 1]), exactly as resampy bounds them.
+    const G: usize = 8;
     let wings = |time_register: f64| {
         let n = time_register as usize;
         let frac = scale * (time_register - n as f64);
@@ -216,22 +217,21 @@ fn resampy_impl(
             (&poly[off_r * row..off_r * row + k_max], eta_r),
         )
     };
-    let fill = |time_register: f64, p: &mut Vec<f64>| {
-        p.clear();
+    // Products of output j, in resampy's order, written interleaved: q[idx·G + j]. Returns the count.
+    let fill = |time_register: f64, q: &mut [f64], j: usize| -> usize {
         let (n, (left, eta_l), (right, eta_r)) = wings(time_register);
         let xs = &xf[n + 1 - left.len()..=n];
-        p.extend(
-            left.iter()
-                .zip(xs.iter().rev())
-                .map(|(&(w, d), &x)| (w + eta_l * d) * x as f64),
-        );
+        let mut idx = 0;
+        for (&(w, d), &x) in left.iter().zip(xs.iter().rev()) {
+            q[idx * G + j] = (w + eta_l * d) * x as f64;
+            idx += 1;
+        }
         let xs = &xf[n + 1..n + 1 + right.len()];
-        p.extend(
-            right
-                .iter()
-                .zip(xs)
-                .map(|(&(w, d), &x)| (w + eta_r * d) * x as f64),
-        );
+        for (&(w, d), &x) in right.iter().zip(xs) {
+            q[idx * G + j] = (w + eta_r * d) * x as f64;
+            idx += 1;
+        }
+        idx
     };
     // f64 dot product of one output, four lanes.
     let dot = |time_register: f64| -> f64 {
@@ -247,35 +247,28 @@ fn resampy_impl(
         }
         (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
     };
-    const G: usize = 8;
     let mut out = vec![0.0f64; n_out];
     out.par_chunks_mut(4096)
         .zip(registers.par_chunks(4096))
         .for_each(|(out, regs)| {
             let cap = 2 * (nwin / index_step + 2);
-            let mut p: [Vec<f64>; G] = std::array::from_fn(|_| Vec::with_capacity(cap));
-            // The common prefix of the G product lists, interleaved: q[idx·G + j].
-            let mut q = vec![0.0f64; cap * G];
             if !exact {
                 for (o, &r) in out.iter_mut().zip(regs) {
                     *o = dot(r) as f32 as f64;
                 }
                 return;
             }
+            let mut q = vec![0.0f64; cap * G];
             for (og, rg) in out.chunks_mut(G).zip(regs.chunks(G)) {
-                for (pj, &r) in p.iter_mut().zip(rg) {
-                    fill(r, pj);
+                let mut len = [0usize; G];
+                for (j, &r) in rg.iter().enumerate() {
+                    len[j] = fill(r, &mut q, j);
                 }
                 let m = rg.len();
                 let mut acc = [0.0f32; G];
                 let mut common = 0;
                 if m == G {
-                    common = p.iter().map(|v| v.len()).min().unwrap_or(0);
-                    for (j, pj) in p.iter().enumerate() {
-                        for (idx, &v) in pj[..common].iter().enumerate() {
-                            q[idx * G + j] = v;
-                        }
-                    }
+                    common = *len.iter().min().unwrap();
                     for step in q[..common * G].chunks_exact(G) {
                         for j in 0..G {
                             acc[j] = (acc[j] as f64 + step[j]) as f32;
@@ -283,8 +276,8 @@ fn resampy_impl(
                     }
                 }
                 for j in 0..m {
-                    for &v in &p[j][common..] {
-                        acc[j] = (acc[j] as f64 + v) as f32;
+                    for idx in common..len[j] {
+                        acc[j] = (acc[j] as f64 + q[idx * G + j]) as f32;
                     }
                     og[j] = acc[j] as f64;
                 }
