@@ -63,6 +63,8 @@ fn stages(path: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
     lap("onset_detect");
     let _ = beat::beat_track(&env, sr, 512, 120.0, 100.0);
     lap("beat_track");
+    let _ = audio::hpss::bailando_beats(&y, sr);
+    lap("(hpss bailando beats)");
     Ok(())
 }
 

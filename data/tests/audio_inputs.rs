@@ -372,3 +372,23 @@ fn mutated_files_never_panic() {
     println!("mutations: {n_ok} accepted, {n_err} rejected");
     assert!(n_err > 0);
 }
+
+#[test]
+fn mp3_with_id3_tags_decodes() {
+    // Most MP3s in the wild start with an ID3v2 tag: a minimal one (10 bytes of padding) in front.
+    let mp3 = std::fs::read(fixture_dir().join("formats/mp3_mono_44100.mp3")).unwrap();
+    let mut b = b"ID3\x03\x00\x00\x00\x00\x00\x0a".to_vec();
+    b.extend_from_slice(&[0u8; 10]);
+    b.extend_from_slice(&mp3);
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "tagged.mp3", &b);
+    let plain = decode_file(&fixture_dir().join("formats/mp3_mono_44100.mp3"), 60.0).unwrap();
+    let tagged = decode_file(&p, 60.0).unwrap();
+    assert_eq!(plain.samples, tagged.samples);
+    // And an ID3v1 tag (128 bytes starting with "TAG") at the end.
+    let mut b1 = mp3.clone();
+    b1.extend_from_slice(b"TAG");
+    b1.extend_from_slice(&[b' '; 125]);
+    let p1 = write(dir.path(), "tagged1.mp3", &b1);
+    assert_eq!(decode_file(&p1, 60.0).unwrap().samples, plain.samples);
+}

@@ -24,16 +24,23 @@ fn sym_index(i: isize, n: usize) -> usize {
     }
 }
 
-/// Sliding median of width `KERNEL` (centred, scipy 'reflect' boundary) of a strided line.
+/// Sliding median of width `KERNEL` (centred, scipy 'reflect' boundary) of a strided line, keeping the
+/// window sorted (one removal and one insertion per step).
 fn median_line(get: impl Fn(usize) -> f64, n: usize, out: &mut [f64]) {
     let h = (KERNEL / 2) as isize;
-    let mut win = [0.0; KERNEL];
-    for (i, o) in out.iter_mut().enumerate().take(n) {
-        for (k, w) in win.iter_mut().enumerate() {
-            *w = get(sym_index(i as isize + k as isize - h, n));
+    let ext: Vec<f64> = (-h..n as isize + h).map(|i| get(sym_index(i, n))).collect();
+    let mut win: Vec<f64> = ext[..KERNEL].to_vec();
+    win.sort_by(|a, b| a.total_cmp(b));
+    for i in 0..n {
+        if i > 0 {
+            let gone = ext[i - 1];
+            let pos = win.partition_point(|v| v.total_cmp(&gone).is_lt());
+            win.remove(pos);
+            let new = ext[i + KERNEL - 1];
+            let pos = win.partition_point(|v| v.total_cmp(&new).is_lt());
+            win.insert(pos, new);
         }
-        let (_, m, _) = win.select_nth_unstable_by(KERNEL / 2, |a, b| a.total_cmp(b));
-        *o = *m;
+        out[i] = win[KERNEL / 2];
     }
 }
 
@@ -153,6 +160,26 @@ mod tests {
         let e_c: f64 = clicks.iter().map(|v| v * v).sum();
         let e_pc: f64 = pc.iter().map(|v| v * v).sum();
         assert!(e_pc > 0.5 * e_c, "{e_pc} vs {e_c}");
+    }
+
+    #[test]
+    fn sliding_median_matches_brute_force() {
+        let n = 200;
+        let x: Vec<f64> = (0..n).map(|i| ((i * 7919) % 101) as f64 * 0.5).collect();
+        let mut fast = vec![0.0; n];
+        median_line(|i| x[i], n, &mut fast);
+        for i in 0..n {
+            let mut w: Vec<f64> = (0..KERNEL as isize)
+                .map(|k| x[sym_index(i as isize + k - 15, n)])
+                .collect();
+            w.sort_by(|a, b| a.total_cmp(b));
+            assert_eq!(fast[i], w[15], "{i}");
+        }
+        // Shorter than the kernel: the reflection wraps several times.
+        let y = [3.0, 1.0, 2.0];
+        let mut o = [0.0; 3];
+        median_line(|i| y[i], 3, &mut o);
+        assert_eq!(o, [2.0, 2.0, 2.0]);
     }
 
     #[test]

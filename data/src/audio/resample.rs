@@ -124,6 +124,18 @@ pub fn librosa_len(n: usize, sr_in: f64, sr_out: f64) -> usize {
 /// resampy 0.2.2 `resample(x, sr_in, sr_out, filter)` on a float32 signal: floor(n·ratio) samples.
 /// Inputs are rounded to f32 first, as librosa's float32 arrays are.
 pub fn resampy(x: &[f64], sr_in: f64, sr_out: f64, filter: Resampler) -> Result<Vec<f64>> {
+    resampy_impl(x, sr_in, sr_out, filter, true)
+}
+
+/// resampy with `exact` = true rounds every partial sum to f32 (bit-exact); false sums each output's
+/// products in f64 with four lanes and rounds once (faster, within a few f32 ulps).
+fn resampy_impl(
+    x: &[f64],
+    sr_in: f64,
+    sr_out: f64,
+    filter: Resampler,
+    exact: bool,
+) -> Result<Vec<f64>> {
     if !(sr_in > 0.0 && sr_out > 0.0 && sr_in.is_finite() && sr_out.is_finite()) {
         return Err(Error::msg(format!(
             "invalid sample rates for resampling: {sr_in} -> {sr_out}"
@@ -184,57 +196,79 @@ pub fn resampy(x: &[f64], sr_in: f64, sr_out: f64, filter: Resampler) -> Result<
             }
         }
     }
-    let fill = |time_register: f64, p: &mut Vec<f64>| {
-        p.clear();
-        let n = time_register as usize;
-        let mut frac = scale * (time_register - n as f64);
-        let mut index_frac = frac * num_table;
-        let mut offset = index_frac as usize;
-        let mut eta = index_frac - offset as f64;
-        let i_max = (n + 1).min((nwin - offset) / index_step);
-        let taps = &poly[offset * row..offset * row + i_max];
-        let xs = &xf[n + 1 - i_max..=n];
-        p.extend(
-            taps.iter()
-                .zip(xs.iter().rev())
-                .map(|(&(w, d), &x)| (w + eta * d) * x as f64),
-        );
-        frac = scale - frac;
-        index_frac = frac * num_table;
-        offset = index_frac as usize;
-        eta = index_frac - offset as f64;
-        let k_max = (n_orig.saturating_sub(n + 1)).min((nwin - offset) / index_step);
-        let taps = &poly[offset * row..offset * row + k_max];
-        let xs = &xf[n + 1..n + 1 + k_max];
-        p.extend(
-            taps.iter()
-                .zip(xs)
-                .map(|(&(w, d), &x)| (w + eta * d) * x as f64),
-        );
-    };
+    // The two wings of output at `time_register`: (table row start, eta, taps) for the left wing (read
+    // backwards from x[n]) and the right wing (forwards from x[n + 1]), exactly as resampy bounds them.
     const G: usize = 8;
+    let wings = |time_register: f64| {
+        let n = time_register as usize;
+        let frac = scale * (time_register - n as f64);
+        let index_frac = frac * num_table;
+        let off_l = index_frac as usize;
+        let eta_l = index_frac - off_l as f64;
+        let i_max = (n + 1).min((nwin - off_l) / index_step);
+        let frac = scale - frac;
+        let index_frac = frac * num_table;
+        let off_r = index_frac as usize;
+        let eta_r = index_frac - off_r as f64;
+        let k_max = (n_orig.saturating_sub(n + 1)).min((nwin - off_r) / index_step);
+        (
+            n,
+            (&poly[off_l * row..off_l * row + i_max], eta_l),
+            (&poly[off_r * row..off_r * row + k_max], eta_r),
+        )
+    };
+    // Products of output j, in resampy's order, written interleaved: q[idx·G + j]. Returns the count.
+    let fill = |time_register: f64, q: &mut [f64], j: usize| -> usize {
+        let (n, (left, eta_l), (right, eta_r)) = wings(time_register);
+        let xs = &xf[n + 1 - left.len()..=n];
+        let mut idx = 0;
+        for (&(w, d), &x) in left.iter().zip(xs.iter().rev()) {
+            q[idx * G + j] = (w + eta_l * d) * x as f64;
+            idx += 1;
+        }
+        let xs = &xf[n + 1..n + 1 + right.len()];
+        for (&(w, d), &x) in right.iter().zip(xs) {
+            q[idx * G + j] = (w + eta_r * d) * x as f64;
+            idx += 1;
+        }
+        idx
+    };
+    // f64 dot product of one output, four lanes.
+    let dot = |time_register: f64| -> f64 {
+        let (n, (left, eta_l), (right, eta_r)) = wings(time_register);
+        let mut lanes = [0.0f64; 4];
+        let xs = &xf[n + 1 - left.len()..=n];
+        for (i, (&(w, d), &x)) in left.iter().zip(xs.iter().rev()).enumerate() {
+            lanes[i & 3] += (w + eta_l * d) * x as f64;
+        }
+        let xs = &xf[n + 1..n + 1 + right.len()];
+        for (i, (&(w, d), &x)) in right.iter().zip(xs).enumerate() {
+            lanes[i & 3] += (w + eta_r * d) * x as f64;
+        }
+        (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
+    };
     let mut out = vec![0.0f64; n_out];
     out.par_chunks_mut(4096)
         .zip(registers.par_chunks(4096))
         .for_each(|(out, regs)| {
             let cap = 2 * (nwin / index_step + 2);
-            let mut p: [Vec<f64>; G] = std::array::from_fn(|_| Vec::with_capacity(cap));
-            // The common prefix of the G product lists, interleaved: q[idx·G + j].
+            if !exact {
+                for (o, &r) in out.iter_mut().zip(regs) {
+                    *o = dot(r) as f32 as f64;
+                }
+                return;
+            }
             let mut q = vec![0.0f64; cap * G];
             for (og, rg) in out.chunks_mut(G).zip(regs.chunks(G)) {
-                for (pj, &r) in p.iter_mut().zip(rg) {
-                    fill(r, pj);
+                let mut len = [0usize; G];
+                for (j, &r) in rg.iter().enumerate() {
+                    len[j] = fill(r, &mut q, j);
                 }
                 let m = rg.len();
                 let mut acc = [0.0f32; G];
                 let mut common = 0;
                 if m == G {
-                    common = p.iter().map(|v| v.len()).min().unwrap_or(0);
-                    for (j, pj) in p.iter().enumerate() {
-                        for (idx, &v) in pj[..common].iter().enumerate() {
-                            q[idx * G + j] = v;
-                        }
-                    }
+                    common = *len.iter().min().unwrap();
                     for step in q[..common * G].chunks_exact(G) {
                         for j in 0..G {
                             acc[j] = (acc[j] as f64 + step[j]) as f32;
@@ -242,8 +276,8 @@ pub fn resampy(x: &[f64], sr_in: f64, sr_out: f64, filter: Resampler) -> Result<
                     }
                 }
                 for j in 0..m {
-                    for &v in &p[j][common..] {
-                        acc[j] = (acc[j] as f64 + v) as f32;
+                    for idx in common..len[j] {
+                        acc[j] = (acc[j] as f64 + q[idx * G + j]) as f32;
                     }
                     og[j] = acc[j] as f64;
                 }
@@ -261,10 +295,22 @@ pub fn resample(
     filter: Resampler,
     scale: bool,
 ) -> Result<Vec<f64>> {
+    resample_with(x, sr_in, sr_out, filter, scale, true)
+}
+
+/// [`resample`] with the choice of exact (f32 per step, as resampy) or f64 accumulation.
+pub fn resample_with(
+    x: &[f64],
+    sr_in: f64,
+    sr_out: f64,
+    filter: Resampler,
+    scale: bool,
+    exact: bool,
+) -> Result<Vec<f64>> {
     if sr_in == sr_out {
         return Ok(x.to_vec());
     }
-    let mut y = resampy(x, sr_in, sr_out, filter)?;
+    let mut y = resampy_impl(x, sr_in, sr_out, filter, exact)?;
     y.resize(librosa_len(x.len(), sr_in, sr_out), 0.0);
     if scale {
         let s = (sr_out / sr_in).sqrt();
