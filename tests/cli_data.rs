@@ -372,3 +372,57 @@ fn eval_on_synthetic_pickles() {
     assert_eq!(r["n_reference"], 12);
     assert!(r["fid_k"].as_f64().unwrap().is_finite());
 }
+
+/// `qean features --dataset` caches every music ID once; the synthetic music's tracked beats follow its tempo.
+#[test]
+fn features_of_a_synthetic_dataset() {
+    let tmp = tempfile::tempdir().unwrap();
+    let ds = tmp.path().join("ds");
+    assert!(qean()
+        .args([
+            "synth",
+            "--sequences",
+            "6",
+            "--seconds",
+            "8",
+            "--seed",
+            "4",
+            "--out"
+        ])
+        .arg(&ds)
+        .status()
+        .unwrap()
+        .success());
+    let run = || {
+        let o = qean()
+            .args(["features", "--dataset"])
+            .arg(&ds)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    assert!(run().contains("0 already cached"));
+    assert!(run().contains(" 0 computed"));
+    let d = qean_data::dataset::Dataset::open(&ds).unwrap();
+    let mut checked = 0;
+    for id in ["mBR0", "mHO5"] {
+        if qean_data::dataset::Dataset::music_ids(&d.all_sequences().unwrap())
+            .contains(&id.to_string())
+        {
+            let (f, frames) = qean_data::feature_cache::load(&d, id).unwrap();
+            let beats: Vec<usize> = (0..frames).filter(|&t| f[t * 35 + 34] > 0.5).collect();
+            let bpm = qean_data::names::tempo_prior(id).unwrap();
+            let period = 3600.0 / bpm;
+            let gaps: Vec<f64> = beats.windows(2).map(|w| (w[1] - w[0]) as f64).collect();
+            let mean = gaps.iter().sum::<f64>() / gaps.len() as f64;
+            // The tracker's tempo grid is 3600/k frames; allow one frame.
+            assert!(
+                (mean - period).abs() <= 1.5,
+                "{id}: mean beat gap {mean}, expected {period}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 0);
+}

@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 
 mod data_cmds;
+mod features_cmd;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -24,6 +25,7 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     Synth(data_cmds::SynthArgs),
+    Features(features_cmd::FeaturesArgs),
     Inspect(data_cmds::InspectArgs),
     Joints(data_cmds::JointsArgs),
     Render(data_cmds::RenderArgs),
@@ -50,7 +52,19 @@ pub fn init_logging(verbose: u8) {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Synth(a) => data_cmds::synth(a),
-        Command::Inspect(a) => data_cmds::inspect(a),
+        Command::Features(a) => features_cmd::features(a),
+        Command::Inspect(a) => {
+            let ext = a
+                .path
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase);
+            if matches!(ext.as_deref(), Some("wav" | "ogg" | "mp3" | "flac")) {
+                features_cmd::inspect_audio(&a.path)
+            } else {
+                data_cmds::inspect(a)
+            }
+        }
         Command::Joints(a) => data_cmds::joints(a),
         Command::Render(a) => data_cmds::render(a),
         Command::Convert(a) => data_cmds::convert(a),

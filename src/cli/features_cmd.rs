@@ -1,0 +1,148 @@
+//! `qean features`: the 35-D music features of audio files, or of every music ID of a dataset (cached).
+
+use std::path::PathBuf;
+
+use anyhow::bail;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use qean_data::audio::{self, FeatureOptions, Resampler};
+use qean_data::dataset::{Dataset, Split};
+use qean_data::feature_cache;
+
+/// Compute the 35-D FACT music features (librosa 0.8.1 semantics: onset envelope, 20 MFCC, 12 chroma_cens,
+/// onset peaks, beats; 60 frames per second) of audio files, writing OUT/<stem>.npy (frames × 35 float32);
+/// or, with --dataset, cache the features of every music ID of an AIST++-layout directory in DIR/features/
+/// (skipping those already cached and up to date).
+#[derive(Args, Debug)]
+pub struct FeaturesArgs {
+    /// Audio files (wav, ogg, mp3, flac; any rate and channel count).
+    pub audio: Vec<PathBuf>,
+    /// Output directory for the .npy files (must exist).
+    #[arg(long, required_unless_present = "dataset")]
+    pub out: Option<PathBuf>,
+    /// An AIST++-layout dataset directory whose wav/ music to cache.
+    #[arg(long, conflicts_with_all = ["audio", "out"])]
+    pub dataset: Option<PathBuf>,
+    /// Beat-tracker tempo prior in BPM. Default: from the AIST++ music ID in the name, else 120.
+    #[arg(long)]
+    pub start_bpm: Option<f64>,
+    /// Resampling filter (resampy 0.2.2's): kaiser_best (librosa.load's default) or kaiser_fast.
+    #[arg(long, default_value = "kaiser_best", value_parser = ["kaiser_best", "kaiser_fast"])]
+    pub resampler: String,
+}
+
+fn options(name: &str, a: &FeaturesArgs) -> anyhow::Result<FeatureOptions> {
+    let mut o = FeatureOptions::for_name(name);
+    if let Some(b) = a.start_bpm {
+        if !(b.is_finite() && b > 0.0) {
+            bail!("--start-bpm must be a positive number, got {b}");
+        }
+        o.start_bpm = b;
+    }
+    o.resampler = if a.resampler == "kaiser_fast" {
+        Resampler::KaiserFast
+    } else {
+        Resampler::KaiserBest
+    };
+    Ok(o)
+}
+
+fn bar(n: usize) -> ProgressBar {
+    let pb = ProgressBar::new(n as u64);
+    pb.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed_precise} eta {eta}]")
+            .expect("valid template"),
+    );
+    pb
+}
+
+pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {
+    if let Some(dir) = &a.dataset {
+        let ds = Dataset::open(dir)?;
+        let mut names: Vec<String> = Split::ALL.iter().flat_map(|s| ds.split(*s)).collect();
+        names.extend(ds.all_sequences()?);
+        let ids = Dataset::music_ids(&names);
+        let pb = bar(ids.len());
+        let describe = |id: &str| -> String {
+            let o = options(id, &a).expect("validated");
+            format!("start_bpm={} resampler={}", o.start_bpm, a.resampler)
+        };
+        options("x", &a)?;
+        let computed = feature_cache::ensure(
+            &ds,
+            &ids,
+            describe,
+            |path, id| {
+                let f = audio::features_for_file(path, &options(id, &a).expect("validated"))?;
+                Ok((f.data, f.frames))
+            },
+            |done, _, id| {
+                pb.set_position(done as u64);
+                pb.set_message(id.to_string());
+            },
+        )?;
+        pb.finish_and_clear();
+        println!(
+            "{} music IDs: {computed} computed, {} already cached, in {}",
+            ids.len(),
+            ids.len() - computed,
+            ds.features_dir().display()
+        );
+        return Ok(());
+    }
+    let out = a
+        .out
+        .clone()
+        .expect("clap requires --out without --dataset");
+    if a.audio.is_empty() {
+        bail!("no audio files given (or use --dataset DIR)");
+    }
+    if !out.is_dir() {
+        bail!("{}: output directory does not exist", out.display());
+    }
+    let pb = bar(a.audio.len());
+    for path in &a.audio {
+        let stem = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "audio".into());
+        pb.set_message(stem.clone());
+        let f = audio::features_for_file(path, &options(&stem, &a)?)?;
+        let dst = out.join(format!("{stem}.npy"));
+        qean_data::npy::write_f32(&dst, &[f.frames, audio::FEATURE_DIM], &f.data)?;
+        pb.println(format!(
+            "{}: {} frames, tempo {:.2} BPM, {} beats -> {}",
+            path.display(),
+            f.frames,
+            f.tempo_bpm,
+            f.beats.len(),
+            dst.display()
+        ));
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    Ok(())
+}
+
+/// `qean inspect` on an audio file: duration, rate, channels, tempo and beat count.
+pub fn inspect_audio(path: &std::path::Path) -> anyhow::Result<()> {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let opts = FeatureOptions::for_name(&stem);
+    let audio = audio::load_audio(path, &audio::LoadOptions::default())?;
+    let f = audio::music_features(&audio.samples, &opts)?;
+    println!("audio: {}", path.display());
+    println!("duration: {:.3} s", audio.duration);
+    println!("sample rate: {} Hz", audio.original_rate);
+    println!("channels: {}", audio.channels);
+    println!("feature frames: {} (60 fps)", f.frames);
+    println!(
+        "tempo: {:.2} BPM (start_bpm {})",
+        f.tempo_bpm, opts.start_bpm
+    );
+    println!("beats: {}", f.beats.len());
+    println!("onset peaks: {}", f.onsets.len());
+    Ok(())
+}
