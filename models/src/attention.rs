@@ -129,6 +129,7 @@ mod tests {
     use crate::testing::{f64_normal, max_abs_diff, to_f64, to_vec};
     use burn::tensor::{DType, TensorData};
 
+    #[allow(clippy::too_many_arguments)] // the weights of SPEC §4.1, spelled out
     /// Plain-loop attention in f64 from the weight matrices, following SPEC §4.1 literally.
     fn reference(
         x: &[f64],

@@ -17,6 +17,8 @@ pub trait DanceGenerator {
 }
 
 /// FACT or QEAN.
+// One value per run: the size gap between the variants costs nothing worth boxing for.
+#[allow(clippy::large_enum_variant)]
 #[derive(Module, Debug)]
 pub enum DanceModel {
     /// mint's FACT.

@@ -38,6 +38,8 @@ pub struct BlockConfig {
 }
 
 /// The token mixer of a block.
+// A handful per model; boxing the QRA variant would only add an indirection.
+#[allow(clippy::large_enum_variant)]
 #[derive(Module, Debug)]
 pub enum Mixer {
     /// FACT's softmax attention.
