@@ -455,6 +455,7 @@ mod tests {
                 let want = attn.forward(x.clone(), None);
                 let (got, _) = qra.forward(x, &pos, None);
                 let err = max_abs_diff(got, want);
+                println!("QRA-1 C {hidden} P {periods}: max |QRA − attention| = {err:.2e}");
                 assert!(err < 1e-10, "C {hidden} P {periods}: {err}");
             }
         }
