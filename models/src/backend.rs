@@ -1,0 +1,87 @@
+//! Backend choice at run time: Burn 0.22 selects the backend through its `Device` value
+//! (BURN_NOTES), so `--backend` is a match that builds one. flex is the default CPU backend;
+//! ndarray is kept for cross-checks (deprecated upstream); wgpu (Vulkan/Metal/GL) needs this
+//! crate's `wgpu` cargo feature.
+
+use burn::tensor::Device;
+
+/// Backend names `device` accepts.
+pub const BACKENDS: [&str; 3] = ["flex", "ndarray", "wgpu"];
+
+/// The default backend.
+pub const DEFAULT_BACKEND: &str = "flex";
+
+/// The device of a backend named on the command line or in a config; a one-line error for an
+/// unknown name, a backend this build lacks, or one that cannot start.
+pub fn device(name: &str) -> Result<Device, String> {
+    match name {
+        "flex" => Ok(Device::flex()),
+        #[allow(deprecated)] // Still the independent CPU backend to cross-check flex against.
+        "ndarray" => Ok(Device::ndarray()),
+        "wgpu" => wgpu_device(),
+        other => Err(format!(
+            "unknown backend `{other}`: expected one of {}",
+            BACKENDS.join(", ")
+        )),
+    }
+}
+
+#[cfg(not(feature = "wgpu"))]
+fn wgpu_device() -> Result<Device, String> {
+    Err("backend `wgpu` is not in this build: rebuild with `--features wgpu`".into())
+}
+
+#[cfg(feature = "wgpu")]
+fn wgpu_device() -> Result<Device, String> {
+    use burn::tensor::{DeviceKind, Tensor};
+    // The device is lazy: run one tiny op so a missing adapter or driver fails here, with one
+    // line, instead of panicking at the first real tensor.
+    let started = std::panic::catch_unwind(|| {
+        let device = Device::wgpu(DeviceKind::DefaultDevice);
+        let probe = Tensor::<1>::ones([4], &device).sum().into_scalar::<f32>();
+        (device, probe)
+    });
+    match started {
+        Ok((device, probe)) if probe == 4.0 => Ok(device),
+        Ok((_, probe)) => Err(format!(
+            "backend `wgpu` started but computed 1+1+1+1 = {probe}"
+        )),
+        Err(panic) => {
+            let why = panic
+                .downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| panic.downcast_ref::<&str>().copied())
+                .unwrap_or("unknown error");
+            let why = why.lines().next().unwrap_or(why);
+            Err(format!("backend `wgpu` cannot start: {why}"))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use burn::tensor::Tensor;
+
+    #[test]
+    fn cpu_backends_compute() {
+        for name in ["flex", "ndarray"] {
+            let device = device(name).unwrap();
+            let s = Tensor::<1>::ones([3], &device).sum().into_scalar::<f32>();
+            assert_eq!(s, 3.0, "{name}");
+        }
+    }
+
+    #[test]
+    fn unknown_and_missing_backends_are_one_line_errors() {
+        let e = device("cuda").unwrap_err();
+        assert!(
+            e.contains("cuda") && e.contains("flex") && !e.contains('\n'),
+            "{e}"
+        );
+        if !cfg!(feature = "wgpu") {
+            let e = device("wgpu").unwrap_err();
+            assert!(e.contains("--features wgpu") && !e.contains('\n'), "{e}");
+        }
+    }
+}

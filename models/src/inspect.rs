@@ -1,0 +1,373 @@
+//! `qean inspect CONFIG.toml`: the architecture a config describes and its exact parameter
+//! count, counted from the instantiated module (lazy parameters: nothing is allocated), plus
+//! SPEC §4.2's closed-form count that a test holds the module to.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use burn::module::Module;
+use burn::tensor::Device;
+
+use crate::config::{
+    load_model_config, AttentionKind, ConfigError, InputFusion, ModelConfig, PositionKind,
+    QraConvInput, QraQkProj, QraTopology,
+};
+use crate::input_fusion::QuaternionFusionConfig;
+use crate::model::DanceModel;
+
+/// What `inspect` reports.
+#[derive(Clone, Debug)]
+pub struct Inspection {
+    /// The config file.
+    pub path: PathBuf,
+    /// Its `[model]` table, defaults and `extends` resolved.
+    pub config: ModelConfig,
+    /// Parameters of the instantiated model.
+    pub params: usize,
+    /// Printable summary (several lines, ends with a newline).
+    pub summary: String,
+}
+
+/// Loads a config file, instantiates its model lazily and summarises it.
+pub fn inspect(path: &Path) -> Result<Inspection, ConfigError> {
+    let config = load_model_config(path)?;
+    let model = config.init(&Device::flex());
+    let params = model.num_params();
+    let summary = summary(&config, &model, Some(path));
+    Ok(Inspection {
+        path: path.to_path_buf(),
+        config,
+        params,
+        summary,
+    })
+}
+
+/// Thousands separators: 120406977 → "120,406,977".
+pub fn group_digits(n: usize) -> String {
+    let s = n.to_string();
+    let mut out = String::new();
+    for (i, ch) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(ch);
+    }
+    out
+}
+
+/// A printable architecture summary with the per-part parameter counts.
+pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> String {
+    let mut s = String::new();
+    let arch = match c.arch {
+        crate::config::Arch::Fact => "FACT (mint)",
+        crate::config::Arch::Qean => "QEAN",
+    };
+    let from = path
+        .map(|p| format!(" from {}", p.display()))
+        .unwrap_or_default();
+    let _ = writeln!(s, "model: {arch}{from}");
+    let _ = writeln!(
+        s,
+        "  width {}, heads {} (head dim {}), MLP {}, layers motion {} / audio {} / cross {}",
+        c.hidden,
+        c.heads,
+        c.head_dim(),
+        c.ffn,
+        c.motion_layers,
+        c.audio_layers,
+        c.cross_layers
+    );
+    let positions = match (c.position, c.keep_abs_pos) {
+        (PositionKind::Learned, _) => "learned absolute".to_string(),
+        (PositionKind::Rotary, keep) => format!(
+            "rotary (SPE, {:?} pairs, base {}, cross positions {:?}){}",
+            c.rope_pairing,
+            c.rope_base,
+            c.cross_positions,
+            if keep { " + learned absolute" } else { "" }
+        ),
+    };
+    let _ = writeln!(s, "  positions: {positions}");
+    let audio_in = match c.input_fusion {
+        InputFusion::Dense => format!("Dense({} → {})", c.audio_dim, c.hidden),
+        InputFusion::Quaternion254 => format!(
+            "[audio | motion] frames → QuaternionLinear({} → {} quaternions)",
+            QuaternionFusionConfig::new(c.audio_dim, c.hidden).quaternions(),
+            c.hidden / 4
+        ),
+    };
+    let _ = writeln!(
+        s,
+        "  motion [B, {}, {}] → Dense({} → {}) → {} layers",
+        c.motion_len,
+        c.motion_dim(),
+        c.motion_dim(),
+        c.hidden,
+        c.motion_layers
+    );
+    let _ = writeln!(
+        s,
+        "  audio  [B, {}, {}] → {} → {} layers",
+        c.audio_len, c.audio_dim, audio_in, c.audio_layers
+    );
+    let attention = match (c.attention, c.qra_topology) {
+        (AttentionKind::Softmax, _) => "softmax".to_string(),
+        (AttentionKind::Qra, QraTopology::SelfAttention) => {
+            let n = (0..c.cross_layers).filter(|&l| c.layer_uses_qra(l)).count();
+            format!(
+                "QRA in {n} of {} layers (P {}, kernel {}, q/k head dim {}, 2π {}, conv input {:?}, positions {:?})",
+                c.cross_layers,
+                c.qra_periods,
+                c.qra_kernel,
+                c.qra_qk_head_dim(),
+                c.qra_two_pi,
+                c.qra_conv_input,
+                c.qra_positions
+            )
+        }
+        (AttentionKind::Qra, QraTopology::CrossPrefix) => format!(
+            "softmax, after a motion→audio QRA block (P {}, kernel {})",
+            c.qra_periods, c.qra_kernel
+        ),
+    };
+    let _ = writeln!(
+        s,
+        "  cross  [B, {}, {}] (motion first) → {} layers, attention: {attention}",
+        c.motion_len + c.audio_len,
+        c.hidden,
+        c.cross_layers
+    );
+    let _ = writeln!(
+        s,
+        "  output Dense({} → {}) → [B, {}, {}]; loss on tokens 0..{}",
+        c.hidden,
+        c.motion_dim(),
+        c.motion_len + c.audio_len,
+        c.motion_dim(),
+        c.target_len
+    );
+    let sites: Vec<String> = c.dropout_sites.iter().map(|d| format!("{d:?}")).collect();
+    let _ = writeln!(
+        s,
+        "  score scale {:?} (1/sqrt({})), dropout {}{}",
+        c.attn_scale,
+        match c.attn_scale {
+            crate::config::AttnScale::Hidden => c.hidden,
+            crate::config::AttnScale::Head => c.head_dim(),
+        },
+        c.dropout,
+        if c.dropout > 0.0 {
+            format!(" at {}", sites.join(", ").to_lowercase())
+        } else {
+            String::new()
+        }
+    );
+    let parts: Vec<(&str, usize)> = match model {
+        DanceModel::Fact(m) => vec![
+            (
+                "motion embedding + position",
+                m.motion_embed.num_params() + m.motion_pos.num_params(),
+            ),
+            ("motion transformer", m.motion_transformer.num_params()),
+            (
+                "audio embedding + position",
+                m.audio_embed.num_params() + m.audio_pos.num_params(),
+            ),
+            ("audio transformer", m.audio_transformer.num_params()),
+            ("cross-modal transformer", m.cross_transformer.num_params()),
+            ("output", m.output.num_params()),
+        ],
+        DanceModel::Qean(m) => vec![
+            (
+                "motion embedding + position",
+                m.motion_embed.num_params() + m.motion_pos.num_params(),
+            ),
+            ("motion transformer", m.motion_transformer.num_params()),
+            (
+                "audio embedding + position",
+                m.audio_embed.num_params() + m.audio_fusion.num_params() + m.audio_pos.num_params(),
+            ),
+            ("audio transformer", m.audio_transformer.num_params()),
+            ("cross prefix (QRA)", m.cross_prefix.num_params()),
+            ("cross-modal transformer", m.cross_transformer.num_params()),
+            ("output", m.output.num_params()),
+        ],
+    };
+    let _ = writeln!(s, "parameters: {}", group_digits(model.num_params()));
+    for (name, n) in parts.into_iter().filter(|(_, n)| *n > 0) {
+        let _ = writeln!(s, "  {name:<28} {:>13}", group_digits(n));
+    }
+    s
+}
+
+/// SPEC §4.2's closed-form parameter count, extended to every option of the schema.
+pub fn formula_param_count(c: &ModelConfig) -> usize {
+    let (w, f, h) = (c.hidden, c.ffn, c.heads);
+    let layer_norms = 2 * (2 * w);
+    let mlp = w * f + f + f * w + w;
+    let output = w * w + w;
+    let dk = c.qra_qk_head_dim();
+    let qra = || {
+        let projections = match c.qra_qk_proj {
+            QraQkProj::Dense => w * (2 * h * dk + w),
+            // Two QuaternionLinear(w/4 → h·dk/4) with a 4·(h·dk/4) bias, and a bias-free v.
+            QraQkProj::Quaternion => 2 * (4 * (w / 4) * (h * dk / 4) + h * dk) + w * w,
+        };
+        let conv_in = match c.qra_conv_input {
+            QraConvInput::Normed => w,
+            QraConvInput::Projected => h * dk,
+        };
+        let channels = h * c.qra_periods;
+        projections + 4 * (conv_in * c.qra_kernel * channels + channels) + output
+    };
+    let softmax_block = layer_norms + 3 * w * w + output + mlp;
+    let qra_block = layer_norms + mlp + qra();
+    let encoders = (c.motion_layers + c.audio_layers) * softmax_block;
+    let cross: usize = (0..c.cross_layers)
+        .map(|l| {
+            if c.layer_uses_qra(l) {
+                qra_block
+            } else {
+                softmax_block
+            }
+        })
+        .sum();
+    let d = c.motion_dim();
+    let motion_in = d * w + w;
+    let audio_in = match c.input_fusion {
+        InputFusion::Dense => c.audio_dim * w + w,
+        InputFusion::Quaternion254 => {
+            let q = QuaternionFusionConfig::new(c.audio_dim, w).quaternions();
+            4 * q * (w / 4) + w
+        }
+    };
+    let positions = if c.learned_positions() {
+        (c.motion_len + c.audio_len) * w
+    } else {
+        0
+    };
+    let prefix = if c.attention == AttentionKind::Qra && c.qra_topology == QraTopology::CrossPrefix
+    {
+        2 * (2 * w) + qra()
+    } else {
+        0
+    };
+    encoders + cross + motion_in + audio_in + positions + w * d + d + prefix
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{Arch, QraDk, QraLayers};
+
+    fn count(c: &ModelConfig) -> usize {
+        c.init(&Device::flex()).num_params()
+    }
+
+    fn qean() -> ModelConfig {
+        ModelConfig {
+            arch: Arch::Qean,
+            heads: 16,
+            dropout: 0.1,
+            ..ModelConfig::default()
+        }
+    }
+
+    #[test]
+    fn mint_fact_has_120_406_977_parameters() {
+        let c = ModelConfig::default();
+        assert_eq!(count(&c), 120_406_977);
+        assert_eq!(formula_param_count(&c), 120_406_977);
+        // SPEC §4.2: 16 layers × 7,483,072 + 677,825, independent of the head count.
+        assert_eq!(16 * 7_483_072 + 677_825, 120_406_977);
+        assert_eq!(count(&qean()), 120_406_977);
+    }
+
+    #[test]
+    fn spec_variant_counts() {
+        // SPEC §4.2 (225 layout unless stated; H = 16, P = 2, kernel 1, QRA in all 12 layers).
+        let layout_219 = ModelConfig {
+            motion_layout: 219,
+            ..ModelConfig::default()
+        };
+        let spe = ModelConfig {
+            position: PositionKind::Rotary,
+            ..qean()
+        };
+        let qra = ModelConfig {
+            attention: AttentionKind::Qra,
+            ..qean()
+        };
+        let full = ModelConfig {
+            position: PositionKind::Rotary,
+            attention: AttentionKind::Qra,
+            ..qean()
+        };
+        for (c, want) in [
+            (layout_219, 120_397_371),
+            (spe, 120_118_977),
+            (qra, 121_637_313),
+            (full, 121_349_313),
+        ] {
+            assert_eq!(count(&c), want, "{c:?}");
+            assert_eq!(formula_param_count(&c), want);
+        }
+    }
+
+    #[test]
+    fn formula_matches_the_module_for_every_option() {
+        let base = ModelConfig {
+            attention: AttentionKind::Qra,
+            hidden: 64,
+            heads: 4,
+            ffn: 96,
+            ..qean()
+        };
+        let variants = [
+            ModelConfig {
+                qra_dk: QraDk::RoundUp,
+                heads: 16,
+                hidden: 80,
+                ..base.clone()
+            },
+            ModelConfig {
+                qra_qk_proj: QraQkProj::Quaternion,
+                heads: 16,
+                hidden: 80,
+                ..base.clone()
+            },
+            ModelConfig {
+                qra_kernel: 3,
+                qra_conv_input: QraConvInput::Projected,
+                ..base.clone()
+            },
+            ModelConfig {
+                qra_layers: QraLayers::LastK,
+                qra_layers_k: 5,
+                qra_periods: 4,
+                ..base.clone()
+            },
+            ModelConfig {
+                qra_topology: QraTopology::CrossPrefix,
+                ..base.clone()
+            },
+            ModelConfig {
+                input_fusion: InputFusion::Quaternion254,
+                position: PositionKind::Rotary,
+                keep_abs_pos: true,
+                ..base.clone()
+            },
+        ];
+        for c in variants {
+            c.validate().unwrap();
+            assert_eq!(count(&c), formula_param_count(&c), "{c:?}");
+        }
+    }
+
+    #[test]
+    fn group_digits_inserts_commas() {
+        assert_eq!(group_digits(120406977), "120,406,977");
+        assert_eq!(group_digits(999), "999");
+        assert_eq!(group_digits(1000), "1,000");
+    }
+}

@@ -1,0 +1,39 @@
+//! Burn modules for music-conditioned dance generation: FACT ("AI Choreographer", Li et al.,
+//! ICCV 2021; google-research/mint) and QEAN ("Quaternion-Enhanced Attention Network", Zhou
+//! et al.), with QEAN's SPE (rotary positions) and QRA (quaternion rotary attention).
+//!
+//! Entry points:
+//! - [`config::load_model_config`] / [`config::load_merged_table`]: the `[model]` table of a run
+//!   config (TOML, `extends` chains, unknown keys rejected with file and line);
+//! - [`ModelConfig::init`] → [`DanceModel`] (FACT or QEAN), `forward(motion, audio)`;
+//! - [`loss::motion_loss`]: L2 on the first 20 output tokens;
+//! - [`DanceModel::save_weights`] / [`DanceModel::load_weights`]: burnpack files;
+//! - [`inspect::inspect`]: summary and exact parameter count for `qean inspect`;
+//! - [`backend::device`]: `flex | ndarray | wgpu` by name.
+
+pub mod attention;
+pub mod backend;
+pub mod config;
+pub mod cross_prefix;
+pub mod fact;
+pub mod feed_forward;
+pub mod init;
+pub mod input_fusion;
+pub mod inspect;
+pub mod loss;
+pub mod model;
+pub mod position;
+pub mod qean;
+pub mod qra;
+pub mod quaternion;
+pub mod quaternion_linear;
+pub mod spe;
+pub mod transformer;
+
+#[cfg(test)]
+pub(crate) mod testing;
+
+pub use config::{ConfigError, ModelConfig};
+pub use fact::{Fact, FactConfig};
+pub use model::{DanceGenerator, DanceModel};
+pub use qean::{ModelOutput, Qean, QeanConfig};

@@ -1,0 +1,214 @@
+//! The model the trainer and the sampler hold: FACT or QEAN behind one enum, built from a
+//! [`ModelConfig`], with weight files in Burn's burnpack format (BURN_NOTES "records").
+
+use std::path::{Path, PathBuf};
+
+use burn::module::Module;
+use burn::tensor::{Device, Tensor};
+
+use crate::config::{Arch, ModelConfig};
+use crate::fact::{Fact, FactConfig};
+use crate::qean::{ModelOutput, Qean, QeanConfig};
+
+/// What the sampler needs from a model: one window in, every output token out.
+pub trait DanceGenerator {
+    /// motion [B, Lm, D], audio [B, La, A] → [B, Lm + La, D]; token 0 predicts frame Lm.
+    fn generate(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3>;
+}
+
+/// FACT or QEAN.
+// One value per run: the size gap between the variants costs nothing worth boxing for.
+#[allow(clippy::large_enum_variant)]
+#[derive(Module, Debug)]
+pub enum DanceModel {
+    /// mint's FACT.
+    Fact(Fact),
+    /// QEAN or a QEAN ablation.
+    Qean(Qean),
+}
+
+impl ModelConfig {
+    /// Builds the model this config describes (parameters initialise lazily from the device
+    /// RNG: seed with `device.seed(..)` first for a reproducible init).
+    pub fn init(&self, device: &Device) -> DanceModel {
+        match self.arch {
+            Arch::Fact => DanceModel::Fact(FactConfig::from(self).init(device)),
+            Arch::Qean => DanceModel::Qean(QeanConfig::new(self.clone()).init(device)),
+        }
+    }
+}
+
+impl DanceModel {
+    /// motion [B, Lm, D], audio [B, La, A] → [B, Lm + La, D].
+    pub fn forward(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
+        match self {
+            DanceModel::Fact(m) => m.forward(motion, audio),
+            DanceModel::Qean(m) => m.forward(motion, audio),
+        }
+    }
+
+    /// The prediction and the weighted QRA penalty to add to the loss (None for FACT and when
+    /// the penalty weights are zero).
+    pub fn forward_with_penalty(&self, motion: Tensor<3>, audio: Tensor<3>) -> ModelOutput {
+        match self {
+            DanceModel::Fact(m) => ModelOutput {
+                prediction: m.forward(motion, audio),
+                penalty: None,
+            },
+            DanceModel::Qean(m) => m.forward_with_penalty(motion, audio),
+        }
+    }
+
+    /// Writes the weights to a burnpack file (atomically: a scratch file renamed into place).
+    /// A path without extension gets `.bpk`; the path written is returned.
+    pub fn save_weights(&self, path: &Path) -> Result<PathBuf, String> {
+        let path = weights_path(path);
+        self.clone()
+            .save_file(&path)
+            .map_err(|e| format!("{}: cannot save weights: {e}", path.display()))?;
+        Ok(path)
+    }
+
+    /// Loads weights saved by [`save_weights`](Self::save_weights) from a model of the same
+    /// config; a missing file or a mismatched parameter set is an error naming the file.
+    pub fn load_weights(self, path: &Path) -> Result<Self, String> {
+        let path = weights_path(path);
+        if !path.is_file() {
+            return Err(format!("{}: no such weights file", path.display()));
+        }
+        self.try_load_file(&path).map_err(|e| {
+            let e = e.to_string();
+            let first = e.lines().next().unwrap_or("");
+            format!("{}: cannot load weights: {first}", path.display())
+        })
+    }
+}
+
+impl DanceGenerator for DanceModel {
+    fn generate(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
+        self.forward(motion, audio)
+    }
+}
+
+impl DanceGenerator for Fact {
+    fn generate(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
+        self.forward(motion, audio)
+    }
+}
+
+impl DanceGenerator for Qean {
+    fn generate(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
+        self.forward(motion, audio)
+    }
+}
+
+fn weights_path(path: &Path) -> PathBuf {
+    if path.extension().is_some() {
+        path.to_path_buf()
+    } else {
+        path.with_extension("bpk")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{AttentionKind, PositionKind};
+    use crate::testing::max_abs_diff;
+    use burn::tensor::Distribution;
+
+    fn tiny(arch: Arch) -> ModelConfig {
+        ModelConfig {
+            arch,
+            hidden: 16,
+            heads: 4,
+            ffn: 32,
+            motion_layers: 1,
+            audio_layers: 1,
+            cross_layers: 2,
+            motion_len: 6,
+            audio_len: 10,
+            target_len: 3,
+            ..ModelConfig::default()
+        }
+    }
+
+    fn inputs(c: &ModelConfig, device: &Device) -> (Tensor<3>, Tensor<3>) {
+        (
+            Tensor::random(
+                [2, c.motion_len, c.motion_dim()],
+                Distribution::Default,
+                device,
+            ),
+            Tensor::random([2, c.audio_len, c.audio_dim], Distribution::Default, device),
+        )
+    }
+
+    #[test]
+    fn output_shape_and_save_load_round_trip() {
+        let device = Device::flex();
+        let dir = tempfile::tempdir().unwrap();
+        for config in [
+            tiny(Arch::Fact),
+            ModelConfig {
+                position: PositionKind::Rotary,
+                attention: AttentionKind::Qra,
+                dropout: 0.1,
+                ..tiny(Arch::Qean)
+            },
+        ] {
+            let model = config.init(&device);
+            let (m, a) = inputs(&config, &device);
+            let y = model.forward(m.clone(), a.clone());
+            assert_eq!(y.dims(), [2, 16, 225]);
+            let path = model.save_weights(&dir.path().join("w")).unwrap();
+            assert_eq!(path.extension().unwrap(), "bpk");
+            let fresh = config.init(&device);
+            assert!(max_abs_diff(fresh.forward(m.clone(), a.clone()), y.clone()) > 1e-6);
+            let loaded = fresh.load_weights(&path).unwrap();
+            assert_eq!(max_abs_diff(loaded.forward(m, a), y), 0.0);
+        }
+    }
+
+    #[test]
+    fn loading_into_another_architecture_fails_with_the_file_named() {
+        let device = Device::flex();
+        let dir = tempfile::tempdir().unwrap();
+        let path = tiny(Arch::Fact)
+            .init(&device)
+            .save_weights(&dir.path().join("fact.bpk"))
+            .unwrap();
+        let other = ModelConfig {
+            hidden: 32,
+            ..tiny(Arch::Fact)
+        };
+        let e = other.init(&device).load_weights(&path).unwrap_err();
+        assert!(e.contains("fact.bpk") && !e.contains('\n'), "{e}");
+        let e = tiny(Arch::Fact)
+            .init(&device)
+            .load_weights(&dir.path().join("missing.bpk"))
+            .unwrap_err();
+        assert!(e.contains("missing.bpk"), "{e}");
+    }
+
+    #[test]
+    fn qean_baseline_with_fact_weights_is_fact() {
+        // QEAN = FACT + switches: with every switch off, the parameters have FACT's names and
+        // shapes, and FACT's weights give FACT's output.
+        let device = Device::flex();
+        let dir = tempfile::tempdir().unwrap();
+        let fact_config = tiny(Arch::Fact);
+        let DanceModel::Fact(fact) = fact_config.init(&device) else {
+            unreachable!()
+        };
+        let path = dir.path().join("fact.bpk");
+        fact.clone().save_file(&path).unwrap();
+        let DanceModel::Qean(qean) = tiny(Arch::Qean).init(&device) else {
+            unreachable!()
+        };
+        let qean = qean.try_load_file(&path).unwrap();
+        let (m, a) = inputs(&fact_config, &device);
+        let err = max_abs_diff(fact.forward(m.clone(), a.clone()), qean.forward(m, a));
+        assert_eq!(err, 0.0);
+    }
+}

@@ -1,0 +1,171 @@
+//! The shipped presets (configs/): parameter counts, output shapes, and that every tiny preset
+//! overfits one fixed batch (loss down 100×). The overfit tests are meant for release builds
+//! (`cargo test --release -p qean-models`); in debug builds they are ignored.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use burn::module::Module;
+use burn::optim::{AdamConfig, GradientsParams};
+use burn::tensor::{Device, Tensor, TensorData};
+use qean_models::inspect::{formula_param_count, inspect};
+use qean_models::loss::motion_loss;
+use qean_models::ModelConfig;
+
+fn preset(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../configs")
+        .join(name)
+}
+
+#[test]
+fn paper_presets_have_the_spec_parameter_counts() {
+    for (name, want) in [
+        ("fact.toml", 120_406_977),
+        ("qean/baseline.toml", 120_406_977),
+        ("qean/spe.toml", 120_118_977),
+        ("qean/qra.toml", 121_637_313),
+        ("qean/full.toml", 121_349_313),
+    ] {
+        let report = inspect(&preset(name)).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(report.params, want, "{name}");
+        assert_eq!(formula_param_count(&report.config), want, "{name}");
+        assert!(report.summary.contains("parameters:"), "{}", report.summary);
+    }
+    let full = inspect(&preset("qean/full.toml")).unwrap();
+    assert_eq!(full.config.heads, 16);
+    assert_eq!(full.config.dropout, 0.1);
+    println!("{}", full.summary);
+}
+
+#[test]
+fn mint_fact_output_is_batch_by_360_by_225() {
+    let config = inspect(&preset("fact.toml")).unwrap().config;
+    let device = Device::flex();
+    device.seed(1);
+    let model = config.init(&device);
+    let motion = Tensor::<3>::zeros([1, 120, 225], &device);
+    let audio = Tensor::<3>::zeros([1, 240, 35], &device);
+    let out = model.forward(motion, audio);
+    assert_eq!(out.dims(), [1, 360, 225]);
+}
+
+/// A fixed smooth batch: motion frames are sums of sinusoids (pad dims zero), the target the
+/// next `target_len` frames, audio a different set of sinusoids.
+fn batch(c: &ModelConfig, batch: usize, device: &Device) -> (Tensor<3>, Tensor<3>, Tensor<3>) {
+    let d = c.motion_dim();
+    let pad = d - 219;
+    let frame = |b: usize, t: usize| -> Vec<f32> {
+        (0..d)
+            .map(|k| {
+                if k < pad {
+                    return 0.0;
+                }
+                let f = 0.02 + 0.01 * (k % 5) as f64;
+                let phase = 0.7 * k as f64 + 1.3 * b as f64;
+                (0.8 * (f * t as f64 + phase).sin()) as f32
+            })
+            .collect()
+    };
+    let motion: Vec<f32> = (0..batch)
+        .flat_map(|b| (0..c.motion_len).flat_map(move |t| frame(b, t)))
+        .collect();
+    let target: Vec<f32> = (0..batch)
+        .flat_map(|b| (0..c.target_len).flat_map(move |t| frame(b, c.motion_len + t)))
+        .collect();
+    let audio: Vec<f32> = (0..batch * c.audio_len * c.audio_dim)
+        .map(|i| ((i as f64 * 0.37).sin() * 0.5) as f32)
+        .collect();
+    (
+        Tensor::from_data(TensorData::new(motion, [batch, c.motion_len, d]), device),
+        Tensor::from_data(
+            TensorData::new(audio, [batch, c.audio_len, c.audio_dim]),
+            device,
+        ),
+        Tensor::from_data(TensorData::new(target, [batch, c.target_len, d]), device),
+    )
+}
+
+/// Trains on one batch; returns (initial loss, final loss, steps, seconds). Losses are measured
+/// without dropout (`valid()`), training runs with the preset's dropout.
+fn overfit(name: &str) -> (f64, f64, usize, f64) {
+    let config = qean_models::config::load_model_config(&preset(name)).unwrap();
+    let device = Device::flex().autodiff();
+    device.seed(7);
+    let mut model = config.init(&device);
+    let (motion, audio, target) = batch(&config, 2, &device);
+    let eval = |model: &qean_models::DanceModel| -> f64 {
+        let plain = Device::flex();
+        let m = Tensor::<3>::from_data(motion.to_data(), &plain);
+        let a = Tensor::<3>::from_data(audio.to_data(), &plain);
+        let t = Tensor::<3>::from_data(target.to_data(), &plain);
+        motion_loss(model.valid().forward(m, a), t).into_scalar::<f32>() as f64
+    };
+    let initial = eval(&model);
+    let mut optim = AdamConfig::new().with_epsilon(1e-8).init();
+    let start = Instant::now();
+    let max_steps = 400;
+    let mut steps = 0;
+    let mut last = initial;
+    while steps < max_steps {
+        let out = model.forward_with_penalty(motion.clone(), audio.clone());
+        let mut loss = motion_loss(out.prediction, target.clone());
+        if let Some(p) = out.penalty {
+            loss = loss + p;
+        }
+        let grads = GradientsParams::from_grads(loss.backward(), &model);
+        let lr = if steps < 300 { 1e-3 } else { 3e-4 };
+        model = optim.step(lr, model, grads);
+        steps += 1;
+        if steps % 25 == 0 {
+            last = eval(&model);
+            if last < initial / 100.0 {
+                break;
+            }
+        }
+    }
+    (initial, last, steps, start.elapsed().as_secs_f64())
+}
+
+fn assert_overfits(name: &str) {
+    let (initial, last, steps, secs) = overfit(name);
+    println!(
+        "{name}: loss {initial:.4e} → {last:.4e} (×{:.0}) in {steps} steps, {secs:.1} s",
+        initial / last
+    );
+    assert!(
+        last < initial / 100.0,
+        "{name}: loss fell only ×{:.1} ({initial:.3e} → {last:.3e})",
+        initial / last
+    );
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug: run with --release")]
+fn tiny_fact_overfits_one_batch() {
+    assert_overfits("tiny/fact.toml");
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug: run with --release")]
+fn tiny_baseline_overfits_one_batch() {
+    assert_overfits("tiny/baseline.toml");
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug: run with --release")]
+fn tiny_spe_overfits_one_batch() {
+    assert_overfits("tiny/spe.toml");
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug: run with --release")]
+fn tiny_qra_overfits_one_batch() {
+    assert_overfits("tiny/qra.toml");
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug: run with --release")]
+fn tiny_full_overfits_one_batch() {
+    assert_overfits("tiny/full.toml");
+}
