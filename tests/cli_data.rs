@@ -426,3 +426,18 @@ fn features_of_a_synthetic_dataset() {
     }
     assert!(checked > 0);
 }
+
+/// `qean inspect configs/fact.toml`: mint's FACT has exactly 120,406,977 parameters.
+#[test]
+fn inspect_fact_config_counts_parameters() {
+    let cfg = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/fact.toml");
+    let out = qean().arg("inspect").arg(&cfg).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("parameter count: 120406977"), "{text}");
+    // An unknown key is an error naming the file and the key.
+    let tmp = tempfile::tempdir().unwrap();
+    let bad = tmp.path().join("bad.toml");
+    std::fs::write(&bad, "[model]\narch = \"fact\"\nhidden_sise = 64\n").unwrap();
+    assert_clean_failure(qean().arg("inspect").arg(&bad), "hidden_sise");
+}

@@ -47,7 +47,8 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Summarise a motion pickle (.pkl), a .npy array, or an AIST++-layout dataset directory.
+/// Summarise a motion pickle (.pkl), a .npy array, an audio file (duration, rate, channels, tempo, beats), a
+/// model config (.toml: architecture and exact parameter count) or an AIST++-layout dataset directory.
 #[derive(Args, Debug)]
 pub struct InspectArgs {
     /// The file or directory to describe.
