@@ -356,6 +356,8 @@ fn eval_on_synthetic_pickles() {
         .arg(ds.join("motions"))
         .arg("--json")
         .arg(&json)
+        .arg("--music")
+        .arg(ds.join("wav"))
         .output()
         .unwrap();
     assert!(
@@ -371,6 +373,11 @@ fn eval_on_synthetic_pickles() {
     assert_eq!(r["n_generated"], 4);
     assert_eq!(r["n_reference"], 12);
     assert!(r["fid_k"].as_f64().unwrap().is_finite());
+    // Beats tracked from the synthetic music; the synthetic dances are beat-locked.
+    let ba = r["beat_align"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("no BeatAlign: {}", r["excluded"]));
+    assert!(ba > 0.0 && ba <= 1.0, "{ba}");
 }
 
 /// `qean features --dataset` caches every music ID once; the synthetic music's tracked beats follow its tempo.
@@ -432,7 +439,11 @@ fn features_of_a_synthetic_dataset() {
 fn inspect_fact_config_counts_parameters() {
     let cfg = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/fact.toml");
     let out = qean().arg("inspect").arg(&cfg).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("parameter count: 120406977"), "{text}");
     // An unknown key is an error naming the file and the key.

@@ -1,5 +1,6 @@
 //! The `qean-eval` command line: parse, load, evaluate, print. All logic is reachable from tests.
 
+use std::collections::HashMap;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
@@ -28,13 +29,15 @@ pub struct Args {
     /// Directory of ground-truth motions (the normalisation and FID reference set), same format.
     #[arg(long)]
     pub reference: PathBuf,
-    /// Directory of the AIST++ music (.wav); beats tracked from audio. Not available in this build yet.
+    /// Directory of the music, <music ID>.wav (or .ogg/.mp3/.flac); beats tracked from the audio as
+    /// --ba-music-beats says. Non-AIST music IDs are not recognised.
     #[arg(long, conflicts_with = "beats")]
     pub music: Option<PathBuf>,
     /// JSON file of precomputed music beats: {"mBR0": [frame, ...], ...} at 60 FPS.
     #[arg(long)]
     pub beats: Option<PathBuf>,
-    /// Which music beats --beats holds (a label recorded in the report).
+    /// Music beats for BeatAlign: bailando (HPSS-percussive, start BPM 120) or feature35 (column 34 of our
+    /// features). With --beats it is only a label recorded in the report.
     #[arg(long, value_enum, default_value_t = MusicBeatSource::Bailando)]
     pub ba_music_beats: MusicBeatSource,
     /// BeatAlign formula: Bailando's (over music beats) or mint PR-41's (over motion beats).
@@ -123,18 +126,16 @@ pub struct EvaluationFile {
 
 /// Load, evaluate each mode, write the JSON (if asked) and return the reports with their markdown table.
 pub fn run(args: &Args) -> anyhow::Result<(EvaluationFile, String)> {
-    if let Some(dir) = &args.music {
-        bail!(
-            "{}: beat tracking from audio is not in this build yet; pass precomputed beats with --beats",
-            dir.display()
-        );
-    }
     let root = args.fk_root.fk();
     let generated = load_joints_dir(&args.generated, root).context("loading generated motions")?;
     let reference = load_joints_dir(&args.reference, root).context("loading reference motions")?;
-    let beats = match &args.beats {
-        Some(p) => Some((p.clone(), read_beats_json(p)?)),
-        None => None,
+    let beats: Option<(PathBuf, HashMap<String, Vec<usize>>)> = match (&args.beats, &args.music) {
+        (Some(p), _) => Some((p.clone(), read_beats_json(p)?)),
+        (None, Some(dir)) => {
+            let names = generated.iter().chain(&reference).map(|s| s.name.as_str());
+            Some((dir.clone(), music_beats(dir, names, args.ba_music_beats)?))
+        }
+        (None, None) => None,
     };
     let lookup = |id: &str| -> crate::Result<Vec<usize>> {
         let (path, map) = beats.as_ref().expect("lookup only passed with beats");
@@ -169,6 +170,46 @@ pub fn run(args: &Args) -> anyhow::Result<(EvaluationFile, String)> {
         .collect();
     let table = render_markdown(&rows);
     Ok((file, table))
+}
+
+/// Music beats of every AIST++ music ID among `names`, from `dir/<music ID>.(wav|ogg|mp3|flac)`:
+/// Bailando's HPSS-percussive beats (start BPM 120), or column 34 of our 35-D features (start BPM from the
+/// music ID's tempo prior). IDs without an audio file are left out (their sequences are then excluded from
+/// BeatAlign with a logged reason).
+pub fn music_beats<'a>(
+    dir: &std::path::Path,
+    names: impl Iterator<Item = &'a str>,
+    source: MusicBeatSource,
+) -> anyhow::Result<HashMap<String, Vec<usize>>> {
+    use qean_data::audio;
+    if !dir.is_dir() {
+        bail!("{}: music directory does not exist", dir.display());
+    }
+    let mut ids: Vec<String> = names.filter_map(qean_data::names::music_id_of).collect();
+    ids.sort();
+    ids.dedup();
+    let mut out = HashMap::new();
+    for id in ids {
+        let Some(path) = qean_data::dataset::AUDIO_EXTENSIONS
+            .iter()
+            .map(|e| dir.join(format!("{id}.{e}")))
+            .find(|p| p.is_file())
+        else {
+            tracing::warn!("no audio for music {id} in {}", dir.display());
+            continue;
+        };
+        let beats = match source {
+            MusicBeatSource::Bailando => {
+                let a = audio::load_audio(&path, &audio::LoadOptions::default())?;
+                audio::hpss::bailando_beats(&a.samples, audio::SR as f64).beats
+            }
+            MusicBeatSource::Feature35 => {
+                audio::features_for_file(&path, &audio::FeatureOptions::for_name(&id))?.beats
+            }
+        };
+        out.insert(id, beats);
+    }
+    Ok(out)
 }
 
 /// Logging to stderr; RUST_LOG overrides the -v level.

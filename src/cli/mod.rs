@@ -62,7 +62,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             if matches!(ext.as_deref(), Some("wav" | "ogg" | "mp3" | "flac")) {
                 features_cmd::inspect_audio(&a.path)
             } else if ext.as_deref() == Some("toml") {
-                let i = qean_models::inspect::inspect(&a.path).map_err(|e| anyhow::anyhow!("{e}"))?;
+                let i =
+                    qean_models::inspect::inspect(&a.path).map_err(|e| anyhow::anyhow!("{e}"))?;
                 print!("{}", i.summary);
                 println!("parameter count: {}", i.params);
                 Ok(())
