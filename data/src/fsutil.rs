@@ -6,6 +6,14 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 
+/// The extension of `path`, lower-cased ("" when there is none): how every reader picks a format.
+pub fn extension_lower(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase()
+}
+
 /// A temporary path next to `path` (same directory, so the final rename is atomic).
 pub fn temp_sibling(path: &Path) -> PathBuf {
     let name = path

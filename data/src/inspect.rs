@@ -47,11 +47,7 @@ pub fn inspect(path: &Path) -> Result<Summary> {
     if !path.exists() {
         return Err(Error::at(path, "no such file or directory"));
     }
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
+    let ext = crate::fsutil::extension_lower(path);
     match ext.as_str() {
         "pkl" | "pickle" => inspect_motion(path).map(Summary::Motion),
         "npy" => inspect_npy(path).map(Summary::Npy),

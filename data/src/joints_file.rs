@@ -10,11 +10,7 @@ use crate::skeleton::NUM_JOINTS;
 
 /// Load joint positions (frames × 24, metres, +Y up) from `path`, choosing the reader by extension.
 pub fn load_joints(path: &Path, root: FkRoot) -> Result<Vec<[f64; 3]>> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
+    let ext = crate::fsutil::extension_lower(path);
     let joints = match ext.as_str() {
         "pkl" | "pickle" => Motion::read_pkl(path)?.joints(root),
         "npy" => {

@@ -318,11 +318,7 @@ impl Motion {
 
 /// Read a motion from an AIST++ pickle or a `.npy` of model vectors (frames, 225 | 219).
 pub fn read_motion(path: &Path) -> Result<Motion> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
+    let ext = crate::fsutil::extension_lower(path);
     match ext.as_str() {
         "pkl" | "pickle" => Motion::read_pkl(path),
         "npy" => {

@@ -128,12 +128,9 @@ impl RootArg {
 
 /// `x.png` → (x.png, x.gif); `x.gif` → (x.png, x.gif); `x` → (x.png, x.gif).
 fn preview_paths(out: &std::path::Path) -> (PathBuf, PathBuf) {
-    let ext = out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    let stem = match ext.as_deref() {
-        Some("png") | Some("gif") => out.with_extension(""),
+    let ext = qean_data::fsutil::extension_lower(out);
+    let stem = match ext.as_str() {
+        "png" | "gif" => out.with_extension(""),
         _ => out.to_path_buf(),
     };
     let add = |e: &str| {
@@ -185,14 +182,10 @@ pub struct ConvertArgs {
 
 pub fn convert(a: ConvertArgs) -> anyhow::Result<()> {
     let motion = qean_data::motion::read_motion(&a.motion)?;
-    let ext = a
-        .out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("bvh") => qean_data::bvh::write(&a.out, &motion, a.root.fk())?,
-        Some("npy") => {
+    let ext = qean_data::fsutil::extension_lower(&a.out);
+    match ext.as_str() {
+        "bvh" => qean_data::bvh::write(&a.out, &motion, a.root.fk())?,
+        "npy" => {
             let flat: Vec<f32> = motion
                 .joints(a.root.fk())
                 .iter()
@@ -200,7 +193,7 @@ pub fn convert(a: ConvertArgs) -> anyhow::Result<()> {
                 .collect();
             qean_data::npy::write_f32(&a.out, &[motion.frames, 24, 3], &flat)?
         }
-        Some("pkl") => motion.write_pkl(&a.out, qean_data::motion::Precision::F64)?,
+        "pkl" => motion.write_pkl(&a.out, qean_data::motion::Precision::F64)?,
         _ => anyhow::bail!(
             "{}: unknown output format (use .bvh, .npy or .pkl)",
             a.out.display()

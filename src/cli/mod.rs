@@ -54,14 +54,10 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Synth(a) => data_cmds::synth(a),
         Command::Features(a) => features_cmd::features(a),
         Command::Inspect(a) => {
-            let ext = a
-                .path
-                .extension()
-                .and_then(|e| e.to_str())
-                .map(str::to_ascii_lowercase);
-            if matches!(ext.as_deref(), Some("wav" | "ogg" | "mp3" | "flac")) {
+            let ext = qean_data::fsutil::extension_lower(&a.path);
+            if matches!(ext.as_str(), "wav" | "ogg" | "mp3" | "flac") {
                 features_cmd::inspect_audio(&a.path)
-            } else if ext.as_deref() == Some("toml") {
+            } else if ext == "toml" {
                 let i =
                     qean_models::inspect::inspect(&a.path).map_err(|e| anyhow::anyhow!("{e}"))?;
                 print!("{}", i.summary);
