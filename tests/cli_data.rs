@@ -8,12 +8,25 @@ fn qean() -> Command {
 }
 
 fn shared() -> PathBuf {
-    let beside = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
-    if beside.is_dir() {
-        beside
-    } else {
-        PathBuf::from("/work/shared/data")
+    qean_data::testdata::shared_dir()
+}
+
+/// Whether python3 can import `module`. When QEAN_REQUIRE_PYTHON is set (CI), a missing module is a failure,
+/// so the Python checks can never be skipped silently.
+fn python_has(module: &str) -> bool {
+    let ok = Command::new("python3")
+        .args(["-c", &format!("import {module}")])
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false);
+    if !ok {
+        assert!(
+            std::env::var("QEAN_REQUIRE_PYTHON").is_err(),
+            "QEAN_REQUIRE_PYTHON is set but python3 cannot import {module}"
+        );
+        eprintln!("skipping: python3 cannot import {module}");
     }
+    ok
 }
 
 fn listing(dir: &Path) -> Vec<String> {
@@ -118,17 +131,7 @@ fn synth_then_inspect_and_joints() {
 /// Python's pickle.load + numpy reads our files (needs python3 with numpy; CI sets QEAN_REQUIRE_PYTHON=1).
 #[test]
 fn synth_pickles_load_in_python() {
-    let have_numpy = Command::new("python3")
-        .args(["-c", "import numpy"])
-        .status()
-        .map(|s| s.success())
-        .unwrap_or(false);
-    if !have_numpy {
-        assert!(
-            std::env::var("QEAN_REQUIRE_PYTHON").is_err(),
-            "QEAN_REQUIRE_PYTHON is set but python3 with numpy is not available"
-        );
-        eprintln!("skipping: python3 with numpy not available");
+    if !python_has("numpy") {
         return;
     }
     let tmp = tempfile::tempdir().unwrap();
@@ -273,17 +276,7 @@ fn bad_inputs_fail_cleanly() {
 /// An independent BVH reader (the `bvh` package from PyPI) parses our export with the right joints and frames.
 #[test]
 fn bvh_export_parses_in_python() {
-    let have = Command::new("python3")
-        .args(["-c", "import bvh"])
-        .status()
-        .map(|s| s.success())
-        .unwrap_or(false);
-    if !have {
-        assert!(
-            std::env::var("QEAN_REQUIRE_PYTHON").is_err(),
-            "QEAN_REQUIRE_PYTHON is set but the python package bvh is not available"
-        );
-        eprintln!("skipping: python package bvh not available");
+    if !python_has("bvh") {
         return;
     }
     let tmp = tempfile::tempdir().unwrap();

@@ -60,7 +60,7 @@ pub fn export_dance(
         .map_err(|m| Error::msg(format!("cannot export {name}: {m}")))?;
     motion.extra = vec![("seed_frames".into(), opts.seed_frames as i64)];
     let joints = motion.joints(opts.root);
-    let flat: Vec<f32> = joints.iter().flat_map(|p| p.map(|x| x as f32)).collect();
+    let flat = crate::npy::joints_to_f32(&joints);
 
     let paths = ExportPaths {
         pkl: dir.join(format!("{name}.pkl")),

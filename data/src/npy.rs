@@ -148,6 +148,17 @@ pub fn write_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<()> {
     atomic_write(path, &to_bytes(shape, ArrayRef::F64(data)))
 }
 
+/// Joint positions (frames × 24) as a flat float32 array, the layout of `.joints.npy` files.
+pub fn joints_to_f32(joints: &[[f64; 3]]) -> Vec<f32> {
+    joints.iter().flat_map(|p| p.map(|x| x as f32)).collect()
+}
+
+/// Write joint positions (frames × 24) as a (frames, 24, 3) float32 `.npy`, atomically.
+pub fn write_joints(path: &Path, joints: &[[f64; 3]]) -> Result<()> {
+    let j = crate::skeleton::NUM_JOINTS;
+    write_f32(path, &[joints.len() / j, j, 3], &joints_to_f32(joints))
+}
+
 fn check_len(path: &Path, shape: &[usize], n: usize) -> Result<()> {
     if shape.iter().product::<usize>() != n {
         return Err(Error::at(

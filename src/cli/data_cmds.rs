@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use qean_data::{synth, FkRoot, Motion};
+use qean_data::{synth, Motion};
+use qean_eval::cli::RootArg;
 
 /// Make a synthetic dataset in the AIST++ layout: procedural music per music ID (WAV) and procedural dances
 /// phase-locked to it (motion pickles), with train/val/test split lists following the AIST++ naming rules.
@@ -74,21 +75,9 @@ pub struct JointsArgs {
     pub root: RootArg,
 }
 
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub enum RootArg {
-    Smpl,
-    Edge,
-}
-
 pub fn joints(a: JointsArgs) -> anyhow::Result<()> {
     let motion = Motion::read_pkl(&a.motion)?;
-    let root = match a.root {
-        RootArg::Smpl => FkRoot::Smpl,
-        RootArg::Edge => FkRoot::Edge,
-    };
-    let joints = motion.joints(root);
-    let flat: Vec<f32> = joints.iter().flat_map(|p| p.map(|x| x as f32)).collect();
-    qean_data::npy::write_f32(&a.out, &[motion.frames, 24, 3], &flat)?;
+    qean_data::npy::write_joints(&a.out, &motion.joints(a.root.fk()))?;
     println!(
         "wrote {}: {} frames × 24 joints",
         a.out.display(),
@@ -115,15 +104,6 @@ pub struct RenderArgs {
     /// Root convention for forward kinematics of .pkl/.npy vectors.
     #[arg(long, value_enum, default_value_t = RootArg::Smpl)]
     pub root: RootArg,
-}
-
-impl RootArg {
-    fn fk(self) -> FkRoot {
-        match self {
-            RootArg::Smpl => FkRoot::Smpl,
-            RootArg::Edge => FkRoot::Edge,
-        }
-    }
 }
 
 /// `x.png` → (x.png, x.gif); `x.gif` → (x.png, x.gif); `x` → (x.png, x.gif).
@@ -185,14 +165,7 @@ pub fn convert(a: ConvertArgs) -> anyhow::Result<()> {
     let ext = qean_data::fsutil::extension_lower(&a.out);
     match ext.as_str() {
         "bvh" => qean_data::bvh::write(&a.out, &motion, a.root.fk())?,
-        "npy" => {
-            let flat: Vec<f32> = motion
-                .joints(a.root.fk())
-                .iter()
-                .flat_map(|p| p.map(|x| x as f32))
-                .collect();
-            qean_data::npy::write_f32(&a.out, &[motion.frames, 24, 3], &flat)?
-        }
+        "npy" => qean_data::npy::write_joints(&a.out, &motion.joints(a.root.fk()))?,
         "pkl" => motion.write_pkl(&a.out, qean_data::motion::Precision::F64)?,
         _ => anyhow::bail!(
             "{}: unknown output format (use .bvh, .npy or .pkl)",

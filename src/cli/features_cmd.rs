@@ -31,12 +31,10 @@ pub struct FeaturesArgs {
     pub resampler: String,
 }
 
-fn options(name: &str, a: &FeaturesArgs) -> anyhow::Result<FeatureOptions> {
+/// Options for the track `name` (`--start-bpm` is checked once in [`features`]).
+fn options(name: &str, a: &FeaturesArgs) -> FeatureOptions {
     let mut o = FeatureOptions::for_name(name);
     if let Some(b) = a.start_bpm {
-        if !(b.is_finite() && b > 0.0) {
-            bail!("--start-bpm must be a positive number, got {b}");
-        }
         o.start_bpm = b;
     }
     o.resampler = if a.resampler == "kaiser_fast" {
@@ -44,7 +42,7 @@ fn options(name: &str, a: &FeaturesArgs) -> anyhow::Result<FeatureOptions> {
     } else {
         Resampler::KaiserBest
     };
-    Ok(o)
+    o
 }
 
 fn bar(n: usize) -> ProgressBar {
@@ -57,6 +55,9 @@ fn bar(n: usize) -> ProgressBar {
 }
 
 pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {
+    if let Some(b) = a.start_bpm.filter(|b| !(b.is_finite() && *b > 0.0)) {
+        bail!("--start-bpm must be a positive number, got {b}");
+    }
     if let Some(dir) = &a.dataset {
         let ds = Dataset::open(dir)?;
         let mut names: Vec<String> = Split::ALL.iter().flat_map(|s| ds.split(*s)).collect();
@@ -64,16 +65,15 @@ pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {
         let ids = Dataset::music_ids(&names);
         let pb = bar(ids.len());
         let describe = |id: &str| -> String {
-            let o = options(id, &a).expect("validated");
+            let o = options(id, &a);
             format!("start_bpm={} resampler={}", o.start_bpm, a.resampler)
         };
-        options("x", &a)?;
         let computed = feature_cache::ensure(
             &ds,
             &ids,
             describe,
             |path, id| {
-                let f = audio::features_for_file(path, &options(id, &a).expect("validated"))?;
+                let f = audio::features_for_file(path, &options(id, &a))?;
                 Ok((f.data, f.frames))
             },
             |done, _, id| {
@@ -107,7 +107,7 @@ pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "audio".into());
         pb.set_message(stem.clone());
-        let f = audio::features_for_file(path, &options(&stem, &a)?)?;
+        let f = audio::features_for_file(path, &options(&stem, &a))?;
         let dst = out.join(format!("{stem}.npy"));
         qean_data::npy::write_f32(&dst, &[f.frames, audio::FEATURE_DIM], &f.data)?;
         pb.println(format!(
