@@ -7,9 +7,13 @@ mod cli;
 fn main() {
     let args = cli::Cli::parse();
     cli::init_logging(args.verbose);
-    if let Err(e) = cli::run(args) {
-        // One line, naming the file and the problem; details of the chain joined by ": ".
-        eprintln!("error: {e:#}");
-        std::process::exit(1);
+    match cli::run(args) {
+        Ok(0) => {}
+        Ok(code) => std::process::exit(code),
+        Err(e) => {
+            // One line, naming the file and the problem; details of the chain joined by ": ".
+            eprintln!("error: {e:#}");
+            std::process::exit(1);
+        }
     }
 }

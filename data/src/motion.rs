@@ -124,6 +124,32 @@ impl Motion {
         Ok(())
     }
 
+    /// A neutral standing pose held for `frames` frames: every joint rotation the identity (SMPL's T-pose
+    /// rest), the root over the origin at the height that puts the lowest joint on the floor (y = 0).
+    /// The sampler's seed when no seed motion is given.
+    pub fn standing(frames: usize, root: FkRoot) -> Motion {
+        let frames = frames.max(1);
+        let mut m = Motion {
+            frames: 1,
+            poses: vec![0.0; 72],
+            trans: vec![0.0; 3],
+            scaling: 1.0,
+            extra: vec![],
+        };
+        let lowest = m
+            .joints(root)
+            .iter()
+            .map(|p| p[1])
+            .fold(f64::INFINITY, f64::min);
+        m.trans[1] = -lowest;
+        Motion {
+            frames,
+            poses: m.poses.repeat(frames),
+            trans: m.trans.repeat(frames),
+            ..m
+        }
+    }
+
     /// Read an AIST++ motion pickle (`smpl_poses` (N,72) or (N,24,3), `smpl_trans` (N,3), optional
     /// `smpl_scaling` (1,) — 1.0 when absent; other keys are ignored).
     pub fn read_pkl(path: &Path) -> Result<Motion> {
@@ -361,6 +387,20 @@ pub fn joint_ranges(joints: &[[f64; 3]]) -> [[f64; 2]; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn standing_pose_has_feet_on_the_floor() {
+        for root in [FkRoot::Smpl, FkRoot::Edge] {
+            let m = Motion::standing(5, root);
+            assert_eq!(m.frames, 5);
+            let j = m.joints(root);
+            let lowest = j[..24].iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
+            assert!(lowest.abs() < 1e-12, "{lowest}");
+            let head = j[15][1];
+            assert!(head > 1.2 && head < 2.0, "head height {head}");
+            assert_eq!(j[..24], j[24 * 4..]);
+        }
+    }
     use crate::testdata::shared_dir;
 
     fn sample_json() -> (Vec<f64>, Vec<f64>) {

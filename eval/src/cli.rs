@@ -24,11 +24,31 @@ use crate::report::{render_markdown, MetricsReport};
 pub struct Args {
     /// Directory of generated motions, seed frames first: joint positions as .npy (T, 24, 3) or (T, 72), model
     /// vectors .npy (T, 225|219), AIST++ .pkl (forward kinematics applied) or .bvh.
-    #[arg(long)]
-    pub generated: PathBuf,
+    #[arg(long, required_unless_present = "run", requires = "reference")]
+    pub generated: Option<PathBuf>,
     /// Directory of ground-truth motions (the normalisation and FID reference set), same format.
+    #[arg(long, required_unless_present = "run", requires = "generated")]
+    pub reference: Option<PathBuf>,
+    /// Checkpoint mode: a training run directory. Samples the test + val sequences of --data with its
+    /// checkpoint (seed = first 120 GT frames, --max-frames generated), evaluates them against every
+    /// non-ignored sequence of --data, and writes R/eval/step-N/report.{json,md}.
+    #[arg(long, conflicts_with_all = ["generated", "reference", "music", "beats"], requires = "data")]
+    pub run: Option<PathBuf>,
+    /// Checkpoint mode: which checkpoint of --run (step-N, N or a path; default the newest).
+    #[arg(long, requires = "run")]
+    pub checkpoint: Option<String>,
+    /// Checkpoint mode: the AIST++-layout dataset (motions/, wav/, splits).
+    #[arg(long, requires = "run")]
+    pub data: Option<PathBuf>,
+    /// Checkpoint mode: paired (each motion with its own music) or unpaired (mint: 10 music draws per motion).
+    #[arg(long, value_enum, default_value_t = crate::run_eval::Protocol::Paired)]
+    pub protocol: crate::run_eval::Protocol,
+    /// Checkpoint mode: keep generating past the end of the music by repeating its last frame.
     #[arg(long)]
-    pub reference: PathBuf,
+    pub audio_pad_edge: bool,
+    /// Checkpoint mode: backend for sampling (default: the run's).
+    #[arg(long)]
+    pub backend: Option<String>,
     /// Directory of the music, <music ID>.wav (or .ogg/.mp3/.flac); beats tracked from the audio as
     /// --ba-music-beats says. Non-AIST music IDs are not recognised.
     #[arg(long, conflicts_with = "beats")]
@@ -126,9 +146,15 @@ pub struct EvaluationFile {
 
 /// Load, evaluate each mode, write the JSON (if asked) and return the reports with their markdown table.
 pub fn run(args: &Args) -> anyhow::Result<(EvaluationFile, String)> {
+    if let Some(run) = &args.run {
+        return crate::run_eval::evaluate_run(args, run);
+    }
     let root = args.fk_root.fk();
-    let generated = load_joints_dir(&args.generated, root).context("loading generated motions")?;
-    let reference = load_joints_dir(&args.reference, root).context("loading reference motions")?;
+    let (Some(generated), Some(reference)) = (&args.generated, &args.reference) else {
+        bail!("give --generated DIR and --reference DIR, or --run R --data DIR");
+    };
+    let generated = load_joints_dir(generated, root).context("loading generated motions")?;
+    let reference = load_joints_dir(reference, root).context("loading reference motions")?;
     let beats: Option<(PathBuf, HashMap<String, Vec<usize>>)> = match (&args.beats, &args.music) {
         (Some(p), _) => Some((p.clone(), read_beats_json(p)?)),
         (None, Some(dir)) => {

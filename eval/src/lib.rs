@@ -20,6 +20,7 @@ pub mod normalise;
 pub mod positions;
 pub mod protocol;
 pub mod report;
+pub mod run_eval;
 
 pub use config::{
     BaSegment, BaVariant, EvalConfig, GeometricVariant, MetricsMode, MusicBeatSource, PositionMode,

@@ -461,7 +461,8 @@ impl fmt::Display for ConfigError {
 impl std::error::Error for ConfigError {}
 
 impl ConfigError {
-    fn new(path: &Path, line: Option<usize>, message: impl Into<String>) -> Self {
+    /// An error in `path` (at `line` when known).
+    pub fn new(path: &Path, line: Option<usize>, message: impl Into<String>) -> Self {
         Self {
             path: path.to_path_buf(),
             line,
@@ -469,7 +470,8 @@ impl ConfigError {
         }
     }
 
-    fn from_toml(path: &Path, text: &str, err: &toml::de::Error) -> Self {
+    /// A TOML parse or schema error, with the line its span points at.
+    pub fn from_toml(path: &Path, text: &str, err: &toml::de::Error) -> Self {
         let line = err
             .span()
             .map(|span| text[..span.start.min(text.len())].matches('\n').count() + 1);
@@ -492,10 +494,26 @@ const MAX_EXTENDS_DEPTH: usize = 16;
 /// key, recursing into tables). Each file's `[model]` table is checked on its own first, so an
 /// unknown or mistyped key is reported with its own file and line.
 pub fn load_merged_table(path: &Path) -> Result<toml::Table, ConfigError> {
-    load_chain(path, 0)
+    load_merged_table_checked(path, &|path, text| {
+        toml::from_str::<FileView>(text)
+            .map(|_| ())
+            .map_err(|e| ConfigError::from_toml(path, text, &e))
+    })
 }
 
-fn load_chain(path: &Path, depth: usize) -> Result<toml::Table, ConfigError> {
+/// A per-file check: (file, its text) → Ok, or the error with the file's own line.
+pub type FileCheck = dyn Fn(&Path, &str) -> Result<(), ConfigError>;
+
+/// [`load_merged_table`] with the caller's per-file check (the trainer checks every table of a
+/// run config, not only `[model]`).
+pub fn load_merged_table_checked(
+    path: &Path,
+    check: &FileCheck,
+) -> Result<toml::Table, ConfigError> {
+    load_chain(path, 0, check)
+}
+
+fn load_chain(path: &Path, depth: usize, check: &FileCheck) -> Result<toml::Table, ConfigError> {
     if depth > MAX_EXTENDS_DEPTH {
         return Err(ConfigError::new(
             path,
@@ -508,7 +526,7 @@ fn load_chain(path: &Path, depth: usize) -> Result<toml::Table, ConfigError> {
     let mut table: toml::Table =
         toml::from_str(&text).map_err(|e| ConfigError::from_toml(path, &text, &e))?;
     // Checked per file, so the error carries this file's line.
-    toml::from_str::<FileView>(&text).map_err(|e| ConfigError::from_toml(path, &text, &e))?;
+    check(path, &text)?;
     let parent = match table.remove("extends") {
         None => return Ok(table),
         Some(toml::Value::String(rel)) => {
@@ -534,7 +552,7 @@ fn load_chain(path: &Path, depth: usize) -> Result<toml::Table, ConfigError> {
             format!("`extends` names {}, which does not exist", parent.display()),
         ));
     }
-    let mut merged = load_chain(&parent, depth + 1)?;
+    let mut merged = load_chain(&parent, depth + 1, check)?;
     merge_into(&mut merged, table);
     Ok(merged)
 }

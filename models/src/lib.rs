@@ -22,11 +22,13 @@ pub mod input_fusion;
 pub mod inspect;
 pub mod loss;
 pub mod model;
+pub mod params;
 pub mod position;
 pub mod qean;
 pub mod qra;
 pub mod quaternion;
 pub mod quaternion_linear;
+pub mod sampler;
 pub mod spe;
 pub mod transformer;
 

@@ -64,10 +64,7 @@ pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {
         names.extend(ds.all_sequences()?);
         let ids = Dataset::music_ids(&names);
         let pb = bar(ids.len());
-        let describe = |id: &str| -> String {
-            let o = options(id, &a);
-            format!("start_bpm={} resampler={}", o.start_bpm, a.resampler)
-        };
+        let describe = |id: &str| -> String { options(id, &a).cache_key() };
         let computed = feature_cache::ensure(
             &ds,
             &ids,

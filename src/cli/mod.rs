@@ -4,6 +4,8 @@ use clap::{Parser, Subcommand};
 
 mod data_cmds;
 mod features_cmd;
+mod sample_cmd;
+mod train_cmds;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -30,6 +32,10 @@ pub enum Command {
     Joints(data_cmds::JointsArgs),
     Render(data_cmds::RenderArgs),
     Convert(data_cmds::ConvertArgs),
+    Train(train_cmds::TrainArgs),
+    Sweep(train_cmds::SweepArgs),
+    Export(train_cmds::ExportArgs),
+    Sample(sample_cmd::SampleArgs),
     /// AIST++ metrics (FID_k, FID_g, Dist_k, Dist_g, BeatAlign); the same as the `qean-eval` binary.
     Eval(qean_eval::cli::Args),
 }
@@ -49,14 +55,29 @@ pub fn init_logging(verbose: u8) {
         .init();
 }
 
-pub fn run(cli: Cli) -> anyhow::Result<()> {
+/// Runs a command; the value is the process exit code (130 when a run was interrupted).
+pub fn run(cli: Cli) -> anyhow::Result<i32> {
     match cli.command {
+        Command::Train(a) => train_cmds::train(a),
+        Command::Sweep(a) => train_cmds::sweep(a),
+        Command::Export(a) => train_cmds::export(a),
+        Command::Sample(a) => sample_cmd::sample(a),
+        other => run_data(other).map(|()| 0),
+    }
+}
+
+fn run_data(command: Command) -> anyhow::Result<()> {
+    match command {
         Command::Synth(a) => data_cmds::synth(a),
         Command::Features(a) => features_cmd::features(a),
         Command::Inspect(a) => {
             let ext = qean_data::fsutil::extension_lower(&a.path);
             if matches!(ext.as_str(), "wav" | "ogg" | "mp3" | "flac") {
                 features_cmd::inspect_audio(&a.path)
+            } else if a.path.join(qean_train::checkpoint::STATE_FILE).is_file() {
+                train_cmds::inspect_checkpoint(&a.path)
+            } else if a.path.join("config.toml").is_file() && a.path.join("metrics.csv").is_file() {
+                train_cmds::inspect_run(&a.path)
             } else if ext == "toml" {
                 let i =
                     qean_models::inspect::inspect(&a.path).map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -74,6 +95,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             let (_, table) = qean_eval::cli::run(&a)?;
             print!("{table}");
             Ok(())
+        }
+        Command::Train(_) | Command::Sweep(_) | Command::Export(_) | Command::Sample(_) => {
+            unreachable!("dispatched in run")
         }
     }
 }

@@ -1,7 +1,20 @@
-//! qean-train: training FACT and QEAN from TOML run configs — LR schedules, metrics logs, run directories with
-//! locking and atomic checkpoints.
+//! qean-train: training FACT and QEAN from TOML run configs — run configs with `extends` and
+//! `--set`, the training loop, LR schedules, metrics logs, atomic checkpoints with exact resume,
+//! sweeps, and the safetensors export.
 
+pub mod checkpoint;
+pub mod data;
+pub mod export;
+pub mod generate;
+pub mod logging;
 pub mod metrics_log;
 pub mod plot;
+pub mod run_config;
 pub mod run_dir;
 pub mod schedule;
+pub mod sweep;
+pub mod trainer;
+
+pub use checkpoint::Checkpoint;
+pub use run_config::RunConfig;
+pub use trainer::{train, ProgressMode, Start, TrainOptions, TrainOutcome};

@@ -20,9 +20,10 @@ pub struct Row {
 
 impl Row {
     fn to_line(&self) -> String {
-        let opt = |x: Option<f64>| x.map(|v| format!("{v:.9e}")).unwrap_or_default();
+        // Shortest round-trip forms: the values read back bit-exact.
+        let opt = |x: Option<f64>| x.map(|v| format!("{v:e}")).unwrap_or_default();
         format!(
-            "{},{:.6e},{},{},{:.3}",
+            "{},{:e},{},{},{:.3}",
             self.step,
             self.lr,
             opt(self.loss),
@@ -69,6 +70,27 @@ pub fn read(path: &Path) -> Result<Vec<Row>> {
     Ok(rows)
 }
 
+/// Like [`read`], but a malformed last line (a row cut short by a kill) is dropped.
+fn read_tolerant(path: &Path) -> Result<Vec<Row>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let lines: Vec<&str> = text
+        .lines()
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .collect();
+    let mut rows = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        match Row::parse(line) {
+            Some(r) => rows.push(r),
+            None if i + 1 == lines.len() => {
+                tracing::warn!("{}: dropping a partial last row", path.display())
+            }
+            None => return Err(Error::at(path, format!("malformed row at line {}", i + 2))),
+        }
+    }
+    Ok(rows)
+}
+
 /// Appends rows to metrics.csv.
 pub struct MetricsLog {
     path: PathBuf,
@@ -80,7 +102,7 @@ impl MetricsLog {
     /// removed (atomically) before appending.
     pub fn open(path: &Path, resume_step: u64) -> Result<MetricsLog> {
         let keep: Vec<Row> = if path.exists() {
-            read(path)?
+            read_tolerant(path)?
                 .into_iter()
                 .filter(|r| r.step <= resume_step)
                 .collect()

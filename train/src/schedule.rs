@@ -16,7 +16,7 @@ pub enum ScheduleKind {
 
 /// The `[schedule]` table of a run config.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct ScheduleConfig {
     #[serde(default)]
     pub kind: ScheduleKind,

@@ -48,6 +48,16 @@ impl Default for FeatureOptions {
 }
 
 impl FeatureOptions {
+    /// The options that change the features, as the feature cache records them: a cached file made with
+    /// other options is recomputed.
+    pub fn cache_key(&self) -> String {
+        let resampler = match self.resampler {
+            Resampler::KaiserBest => "kaiser_best",
+            Resampler::KaiserFast => "kaiser_fast",
+        };
+        format!("start_bpm={} resampler={resampler}", self.start_bpm)
+    }
+
     /// Options with the tempo prior of an AIST++ name (music ID or sequence name), else 120 BPM.
     pub fn for_name(name: &str) -> Self {
         let start_bpm = crate::names::music_id_of(name)

@@ -1,0 +1,290 @@
+//! Checkpoint mode (`qean-eval --run R --data DIR`, SPEC §1.6): sample the test + val sequences
+//! with a trained checkpoint (seed = the first 120 ground-truth frames, 1200 generated frames,
+//! batched), then every metric against the ground-truth reference set (all non-ignored
+//! sequences, full length), written to `R/eval/step-N/report.{json,md}` with the generated
+//! joints beside them.
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context};
+use indicatif::{ProgressBar, ProgressStyle};
+use qean_data::autoregress::{AudioPad, SampleOptions, SampleRequest};
+use qean_data::dataset::{Dataset, Split};
+use qean_data::feature_cache;
+use qean_data::motion::Motion;
+use qean_data::names::music_id_of;
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+use crate::cli::{music_beats, Args, EvaluationFile};
+use crate::io::write_json_atomic;
+use crate::positions::{Frame, Sequence, N_JOINTS};
+use crate::protocol::evaluate;
+use crate::report::{render_markdown, MetricsReport};
+
+/// Which motion is paired with which music.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Protocol {
+    /// Each test/val motion with its own music (Bailando, QEAN; the default).
+    Paired,
+    /// mint's: 10 draws of music per motion from the same set (seed 42), duplicates dropped.
+    Unpaired,
+}
+
+/// One generated sequence of the protocol.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Pairing {
+    /// Output name; its 5th `_` field is the music ID (AIST++ naming), so BeatAlign finds the music.
+    pub name: String,
+    /// The ground-truth sequence giving the seed.
+    pub motion: String,
+    pub music_id: String,
+    /// Frames generated after the seed.
+    pub generated: usize,
+}
+
+/// report.json of checkpoint mode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunReport {
+    pub checkpoint: PathBuf,
+    pub step: u64,
+    pub protocol: Protocol,
+    pub frames: usize,
+    pub pairings: Vec<Pairing>,
+    pub reports: Vec<MetricsReport>,
+}
+
+/// The pairs of a protocol over the test + val sequences.
+pub fn pairings(names: &[String], protocol: Protocol) -> Vec<(String, String, String)> {
+    match protocol {
+        Protocol::Paired => names
+            .iter()
+            .filter_map(|n| music_id_of(n).map(|m| (n.clone(), m, n.clone())))
+            .collect(),
+        Protocol::Unpaired => {
+            let musics: Vec<String> = names.iter().filter_map(|n| music_id_of(n)).collect();
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(42);
+            let mut seen = HashSet::new();
+            let mut out = Vec::new();
+            for n in names {
+                for _ in 0..10 {
+                    let m = musics[rng.random_range(0..musics.len())].clone();
+                    if seen.insert((n.clone(), m.clone())) {
+                        // The music field replaced, the source motion's music kept as a suffix.
+                        let fields: Vec<&str> = n.split('_').collect();
+                        let name = if fields.len() >= 6 {
+                            let mut f: Vec<String> = fields.iter().map(|s| s.to_string()).collect();
+                            let own = f[4].clone();
+                            f[4] = m.clone();
+                            format!("{}_from-{own}", f.join("_"))
+                        } else {
+                            format!("{n}_{m}")
+                        };
+                        out.push((n.clone(), m, name));
+                    }
+                }
+            }
+            out
+        }
+    }
+}
+
+fn frames_of(points: Vec<[f64; 3]>) -> Vec<Frame> {
+    points
+        .chunks_exact(N_JOINTS)
+        .map(|c| {
+            let mut f = [[0.0; 3]; N_JOINTS];
+            f.copy_from_slice(c);
+            f
+        })
+        .collect()
+}
+
+/// Runs checkpoint mode; returns the report file's content and the markdown table.
+pub fn evaluate_run(args: &Args, run: &Path) -> anyhow::Result<(EvaluationFile, String)> {
+    let data = args
+        .data
+        .as_ref()
+        .context("--run needs --data DIR (the AIST++-layout dataset)")?;
+    let ck = qean_train::checkpoint::resolve_in_run(run, args.checkpoint.as_deref())?;
+    let ds = Dataset::open(data)?;
+    let mut names = ds.split(Split::Test);
+    names.extend(ds.split(Split::Val));
+    names.retain(|n| {
+        ds.motion_path(n).is_file() || {
+            tracing::warn!(
+                "{}: missing, left out of the evaluation",
+                ds.motion_path(n).display()
+            );
+            false
+        }
+    });
+    if names.len() < 2 {
+        bail!(
+            "{}: the test and val splits hold {} motion(s); the metrics need at least 2",
+            data.display(),
+            names.len()
+        );
+    }
+    qean_train::data::ensure_features(&ds, &names)?;
+    let config = &ck.config;
+    let layout = config.layout();
+    let seed_frames = config.model.motion_len;
+    let root = args.fk_root.fk();
+
+    let pairs = pairings(&names, args.protocol);
+    let mut requests = Vec::new();
+    for (motion, music, _) in &pairs {
+        let path = ds.motion_path(motion);
+        let m = Motion::read_pkl(&path)?;
+        if m.frames < seed_frames {
+            bail!(
+                "{}: {} frames, shorter than the {seed_frames}-frame seed",
+                path.display(),
+                m.frames
+            );
+        }
+        let (audio, _) = feature_cache::load(&ds, music)?;
+        requests.push(SampleRequest {
+            seed: m.slice(0, seed_frames).to_layout(layout),
+            audio,
+        });
+    }
+    let opts = SampleOptions {
+        frames: args.max_frames,
+        audio_pad: if args.audio_pad_edge {
+            AudioPad::Edge
+        } else {
+            AudioPad::Stop
+        },
+        feedback_project: false,
+        layout,
+        spec: config.window_spec(),
+    };
+    let backend = args
+        .backend
+        .clone()
+        .unwrap_or_else(|| config.train.backend.clone());
+    let device = qean_models::backend::device(&backend).map_err(anyhow::Error::msg)?;
+    let model = ck.load_model(&device)?;
+    let pb = ProgressBar::new(args.max_frames as u64);
+    pb.set_style(
+        ProgressStyle::with_template(&format!(
+            "sampling {} sequences {{bar:30}} {{pos}}/{{len}} frames {{per_sec}} [eta {{eta}}]",
+            requests.len()
+        ))
+        .expect("valid template"),
+    );
+    let dances = qean_models::sampler::sample(&model, &device, &requests, &opts, |done, total| {
+        pb.set_length(total as u64);
+        pb.set_position(done as u64);
+    });
+    pb.finish_and_clear();
+
+    let out_dir = run
+        .join("eval")
+        .join(qean_train::run_dir::checkpoint_name(ck.state.step));
+    let joints_dir = out_dir.join("generated");
+    std::fs::create_dir_all(&joints_dir)
+        .with_context(|| format!("{}: cannot create", joints_dir.display()))?;
+    let d = layout.dim();
+    let mut generated = Vec::new();
+    let mut pairings_out = Vec::new();
+    for ((motion, music, name), dance) in pairs.iter().zip(&dances) {
+        let m = Motion::from_layout(dance, layout)
+            .map_err(|e| anyhow::anyhow!("generated {name}: {e}"))?;
+        let points = m.joints(root);
+        qean_data::npy::write_joints(&joints_dir.join(format!("{name}.joints.npy")), &points)?;
+        generated.push(Sequence {
+            name: name.clone(),
+            joints: frames_of(points),
+        });
+        pairings_out.push(Pairing {
+            name: name.clone(),
+            motion: motion.clone(),
+            music_id: music.clone(),
+            generated: dance.len() / d - seed_frames,
+        });
+    }
+    let lengths: Vec<usize> = pairings_out.iter().map(|p| p.generated).collect();
+    tracing::info!(
+        "generated {} sequences, {}..={} frames each",
+        lengths.len(),
+        lengths.iter().min().unwrap_or(&0),
+        lengths.iter().max().unwrap_or(&0)
+    );
+
+    // The GT reference set: every non-ignored motion, full length.
+    let mut reference = Vec::new();
+    for name in ds.all_sequences()? {
+        let m = Motion::read_pkl(&ds.motion_path(&name))?;
+        reference.push(Sequence {
+            name: name.clone(),
+            joints: frames_of(m.joints(root)),
+        });
+    }
+    let mut ba_names: Vec<&str> = generated.iter().map(|s| s.name.as_str()).collect();
+    ba_names.extend(names.iter().map(String::as_str));
+    let beats = music_beats(&data.join("wav"), ba_names.into_iter(), args.ba_music_beats)?;
+    let lookup = |id: &str| -> crate::Result<Vec<usize>> {
+        beats.get(id).cloned().ok_or_else(|| {
+            crate::Error::file(data.join("wav"), format!("no audio for music ID '{id}'"))
+        })
+    };
+    let mut reports = Vec::new();
+    for mut cfg in args.configs() {
+        cfg.seed_frames = seed_frames;
+        cfg.music_offset = 0;
+        reports.push(evaluate(&generated, &reference, Some(&lookup), &cfg)?);
+    }
+    let m = &config.model;
+    let label = match m.arch {
+        qean_models::config::Arch::Fact => format!("FACT step {}", ck.state.step),
+        qean_models::config::Arch::Qean => format!(
+            "QEAN ({:?} positions, {:?} attention) step {}",
+            m.position, m.attention, ck.state.step
+        )
+        .to_lowercase()
+        .replacen("qean", "QEAN", 1),
+    };
+    let labels: Vec<String> = reports
+        .iter()
+        .map(|r| match reports.len() {
+            1 => label.clone(),
+            _ => format!(
+                "{label} ({})",
+                crate::config::value_name(r.config.metrics_mode)
+            ),
+        })
+        .collect();
+    let rows: Vec<(&str, &MetricsReport)> =
+        labels.iter().map(String::as_str).zip(&reports).collect();
+    let table = render_markdown(&rows);
+    let report = RunReport {
+        checkpoint: ck.dir.clone(),
+        step: ck.state.step,
+        protocol: args.protocol,
+        frames: args.max_frames,
+        pairings: pairings_out,
+        reports: reports.clone(),
+    };
+    write_json_atomic(&out_dir.join("report.json"), &report)?;
+    let md = format!(
+        "# Evaluation of {} ({:?} protocol, {} sequences, seed = first {seed_frames} GT frames, up to {} generated frames)\n\n{table}",
+        ck.dir.display(),
+        args.protocol,
+        report.pairings.len(),
+        args.max_frames
+    );
+    qean_data::fsutil::atomic_write(&out_dir.join("report.md"), md.as_bytes())?;
+    let file = EvaluationFile { reports };
+    if let Some(path) = &args.json {
+        write_json_atomic(path, &file)?;
+    }
+    Ok((
+        file,
+        format!("{table}\nreport: {}\n", out_dir.join("report.md").display()),
+    ))
+}

@@ -1,0 +1,382 @@
+//! `qean train`, `qean sweep`, `qean export`, and `qean inspect` of runs and checkpoints.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use anyhow::{anyhow, bail};
+use clap::Args;
+use qean_train::checkpoint::{self, Checkpoint};
+use qean_train::{sweep, ProgressMode, RunConfig, Start, TrainOptions};
+
+/// Train FACT or QEAN from a TOML run config (SPEC §5): random 240-frame windows of the train split,
+/// L2 loss on the first 20 output tokens, Adam with the configured step schedule. Writes R/config.toml
+/// (resolved), R/metrics.csv (step, lr, loss, val_loss, seconds), R/train.log, R/loss.png and
+/// R/checkpoints/step-N/ (model, optimiser, trainer state; the last train.keep_last plus the best by
+/// validation loss). Ctrl-C writes a checkpoint and stops; `--resume R` continues exactly.
+///
+/// Examples:
+///   qean train --config configs/tiny/full.toml --data synth --run-dir runs/full
+///   qean train --resume runs/full --set train.steps=4000
+#[derive(Args, Debug)]
+pub struct TrainArgs {
+    /// Run config (TOML; see configs/README.md). Optional with --resume (R/config.toml is used).
+    #[arg(long, required_unless_present = "resume")]
+    pub config: Option<PathBuf>,
+    /// Run directory (default: runs/<config name>).
+    #[arg(long)]
+    pub run_dir: Option<PathBuf>,
+    /// Continue a run: a run directory (its newest checkpoint) or R/checkpoints/step-N.
+    #[arg(long)]
+    pub resume: Option<PathBuf>,
+    /// Dataset directory (AIST++ layout); the same as --set data.dir=DIR.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// Backend: flex (CPU, default), ndarray (CPU), wgpu (GPU; needs a build with --features wgpu).
+    #[arg(long)]
+    pub backend: Option<String>,
+    /// Override any config field: --set train.steps=100 --set model.dropout=0.2 (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Plain progress lines instead of a bar.
+    #[arg(long)]
+    pub plain: bool,
+}
+
+/// A stop flag set by Ctrl-C (SIGINT) or SIGTERM: the trainer checkpoints and stops.
+fn stop_flag() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let f = flag.clone();
+    let installed = ctrlc::set_handler(move || {
+        if f.swap(true, Ordering::SeqCst) {
+            // Second Ctrl-C: give up at once (the newest checkpoint stays valid).
+            eprintln!("interrupted again: exiting without a checkpoint");
+            std::process::exit(130);
+        }
+        eprintln!("interrupt: finishing the current update and writing a checkpoint (Ctrl-C again to abort)");
+    });
+    if let Err(e) = installed {
+        tracing::warn!("Ctrl-C handler not installed: {e}");
+    }
+    flag
+}
+
+fn overrides(set: &[String], data: &Option<PathBuf>, backend: &Option<String>) -> Vec<String> {
+    let mut o = set.to_vec();
+    if let Some(d) = data {
+        o.push(format!(
+            "data.dir={}",
+            toml::Value::String(d.to_string_lossy().into_owned())
+        ));
+    }
+    if let Some(b) = backend {
+        o.push(format!("train.backend={}", toml::Value::String(b.clone())));
+    }
+    o
+}
+
+fn progress(plain: bool) -> ProgressMode {
+    if plain {
+        ProgressMode::Lines
+    } else {
+        ProgressMode::Auto
+    }
+}
+
+pub fn train(a: TrainArgs) -> anyhow::Result<i32> {
+    let overrides = overrides(&a.set, &a.data, &a.backend);
+    let (config, run_dir, start) = match &a.resume {
+        Some(path) => {
+            let ck = checkpoint::resolve(path)?;
+            let run_dir = ck.run_dir().ok_or_else(|| {
+                anyhow!(
+                    "{}: not inside a run directory (R/checkpoints/step-N)",
+                    ck.dir.display()
+                )
+            })?;
+            if let Some(r) = &a.run_dir {
+                if std::fs::canonicalize(r).ok() != std::fs::canonicalize(&run_dir).ok() {
+                    bail!(
+                        "--run-dir {} does not hold the checkpoint {} (omit --run-dir with --resume)",
+                        r.display(),
+                        ck.dir.display()
+                    );
+                }
+            }
+            let config_path = a
+                .config
+                .clone()
+                .unwrap_or_else(|| run_dir.join("config.toml"));
+            let config = RunConfig::load(&config_path, &overrides).map_err(|e| anyhow!("{e}"))?;
+            (config, run_dir, Start::From(ck.dir))
+        }
+        None => {
+            let config_path = a.config.clone().expect("clap requires --config");
+            let config = RunConfig::load(&config_path, &overrides).map_err(|e| anyhow!("{e}"))?;
+            let run_dir = a.run_dir.clone().unwrap_or_else(|| {
+                let stem = config_path
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_else(|| "run".into());
+                Path::new("runs").join(stem)
+            });
+            (config, run_dir, Start::Fresh)
+        }
+    };
+    let opts = TrainOptions {
+        run_dir: run_dir.clone(),
+        start,
+        progress: progress(a.plain),
+        stop: stop_flag(),
+        label: String::new(),
+    };
+    let out = qean_train::train(config, &opts)?;
+    let best = out
+        .best
+        .map(|b| format!(", best val_loss {:.4e} at step {}", b.val_loss, b.step))
+        .unwrap_or_default();
+    if out.interrupted {
+        println!(
+            "interrupted at step {}/{}: checkpoint {}\ncontinue with: qean train --resume {}",
+            out.step,
+            out.total_steps,
+            out.checkpoint.display(),
+            run_dir.display()
+        );
+        return Ok(130);
+    }
+    if out.already_done {
+        println!(
+            "{}: already trained to step {} (raise train.steps with --set to continue)",
+            run_dir.display(),
+            out.step
+        );
+        return Ok(0);
+    }
+    println!(
+        "trained {} steps in {:.1} s: loss {}, val_loss {}{best}\ncheckpoint: {}\nmetrics: {}  plot: {}",
+        out.step,
+        out.seconds,
+        out.last_loss.map(|v| format!("{v:.4e}")).unwrap_or_else(|| "-".into()),
+        out.val_loss.map(|v| format!("{v:.4e}")).unwrap_or_else(|| "-".into()),
+        out.checkpoint.display(),
+        run_dir.join("metrics.csv").display(),
+        run_dir.join("loss.png").display()
+    );
+    Ok(0)
+}
+
+/// Run a sweep: every variant × seed × grid combination of a sweep file is one training run in
+/// S-runs/<name>/ (finished runs are skipped, interrupted ones resumed), then S-runs/summary.md and
+/// summary.csv (variant, seed, steps, final train/val loss, time, metrics when evaluated).
+///
+/// Example: qean sweep --config configs/sweeps/tiny-ablation.toml --data synth
+#[derive(Args, Debug)]
+pub struct SweepArgs {
+    /// Sweep file (see configs/sweeps/).
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Output directory (default: S-runs beside the sweep file).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Dataset directory for every run (same as --set data.dir=DIR).
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// Backend for every run.
+    #[arg(long)]
+    pub backend: Option<String>,
+    /// Override a field in every run (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Print the planned runs and exit.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Plain progress lines instead of bars.
+    #[arg(long)]
+    pub plain: bool,
+}
+
+pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
+    let overrides = overrides(&a.set, &a.data, &a.backend);
+    let (config, out_dir, runs) = sweep::plan(&a.config, a.out.as_deref(), &overrides)?;
+    println!("{} runs in {}:", runs.len(), out_dir.display());
+    for r in &runs {
+        println!("  {}  ({})", r.name, r.config.summary());
+    }
+    if a.dry_run {
+        return Ok(0);
+    }
+    let options = TrainOptions {
+        progress: progress(a.plain),
+        stop: stop_flag(),
+        ..TrainOptions::new(&out_dir)
+    };
+    let evaluator = |run_dir: &Path| -> qean_data::error::Result<Vec<(String, f64)>> {
+        evaluate_checkpoint(run_dir).map_err(|e| qean_data::error::Error::msg(format!("{e:#}")))
+    };
+    let evaluator_ref: Option<&sweep::Evaluator> = if config.evaluate {
+        Some(&evaluator)
+    } else {
+        None
+    };
+    let results = sweep::run(&out_dir, &runs, &options, evaluator_ref)?;
+    if results.iter().any(|r| r.status == "interrupted") {
+        println!("interrupted: run the same command again to continue");
+        return Ok(130);
+    }
+    let md = std::fs::read_to_string(out_dir.join("summary.md"))?;
+    print!("{md}");
+    println!("summary: {}", out_dir.join("summary.csv").display());
+    Ok(0)
+}
+
+/// The AIST++ metrics of a run's newest checkpoint (checkpoint mode of qean-eval, defaults, on the run's
+/// dataset): the `reference`-mode numbers, comparable with published tables.
+fn evaluate_checkpoint(run_dir: &Path) -> anyhow::Result<Vec<(String, f64)>> {
+    use clap::Parser;
+    let config = RunConfig::load(&run_dir.join("config.toml"), &[]).map_err(|e| anyhow!("{e}"))?;
+    let data = config
+        .data
+        .dir
+        .ok_or_else(|| anyhow!("{}: no data.dir", run_dir.display()))?;
+    let args = qean_eval::cli::Args::try_parse_from([
+        "qean-eval".as_ref(),
+        "--run".as_ref(),
+        run_dir.as_os_str(),
+        "--data".as_ref(),
+        data.as_os_str(),
+        "--metrics-mode".as_ref(),
+        "reference".as_ref(),
+    ] as [&std::ffi::OsStr; 7])?;
+    let (file, _) = qean_eval::cli::run(&args)?;
+    let r = file
+        .reports
+        .first()
+        .ok_or_else(|| anyhow!("evaluation produced no report"))?;
+    let mut out = vec![
+        ("fid_k".to_string(), r.fid_k),
+        ("fid_g".to_string(), r.fid_g),
+        ("dist_k".to_string(), r.div_k),
+        ("dist_g".to_string(), r.div_g),
+    ];
+    if let Some(ba) = r.beat_align {
+        out.push(("beat_align".to_string(), ba));
+    }
+    Ok(out)
+}
+
+/// Export a checkpoint's weights as one safetensors file: every parameter as f32 under a stable
+/// dotted name (docs/weights.md lists them with shapes, layouts and roles; Burn's Linear weight is
+/// [in, out]). The header holds the model config, the step and the params_hash.
+#[derive(Args, Debug)]
+pub struct ExportArgs {
+    /// A run directory (its newest checkpoint) or R/checkpoints/step-N.
+    pub checkpoint: PathBuf,
+    /// Output file (.safetensors).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+pub fn export(a: ExportArgs) -> anyhow::Result<i32> {
+    let ck = checkpoint::resolve(&a.checkpoint)?;
+    let s = qean_train::export::export_safetensors(&ck, &a.out)?;
+    println!(
+        "{}: {} tensors, {} values (step {}), params_hash: {}",
+        a.out.display(),
+        s.tensors,
+        s.values,
+        ck.state.step,
+        s.params_hash
+    );
+    Ok(0)
+}
+
+/// `qean inspect` of a checkpoint directory: step, config, optimiser state and the hash of every
+/// parameter value (recomputed from the weights and checked against the one recorded).
+pub fn inspect_checkpoint(dir: &Path) -> anyhow::Result<()> {
+    let ck = Checkpoint::read(dir)?;
+    let model = ck.load_model(&burn::tensor::Device::flex())?;
+    let params = qean_models::params::named_parameters(&model);
+    let hash = qean_models::params::params_hash(&params);
+    if hash != ck.state.params_hash {
+        bail!(
+            "{}: weights do not match the recorded params_hash ({} recorded, {} found)",
+            dir.display(),
+            ck.state.params_hash,
+            hash
+        );
+    }
+    let s = &ck.state;
+    let o = &ck.config.optim;
+    let opt = burn::optim::OptimizerRecord::load(dir.join(checkpoint::OPTIMIZER_FILE))
+        .map_err(|e| anyhow!("{}: {e}", dir.join(checkpoint::OPTIMIZER_FILE).display()))?;
+    let values: usize = params.iter().map(|p| p.values.len()).sum();
+    println!("checkpoint: {}", dir.display());
+    println!("step: {} of {}", s.step, s.total_steps);
+    println!("config: {}", ck.config.summary());
+    println!("parameters: {} tensors, {} values", params.len(), values);
+    println!("params_hash: {hash}");
+    println!(
+        "optimiser: adam beta1 {} beta2 {} epsilon {:e} weight_decay {}; {} state tensors; next lr {:e}",
+        o.beta1,
+        o.beta2,
+        o.epsilon,
+        o.weight_decay,
+        opt.len(),
+        s.next_lr
+    );
+    println!(
+        "stream: seed {} epoch {} position {}",
+        s.sampler.seed, s.sampler.epoch, s.sampler.position
+    );
+    let f = |x: Option<f64>| x.map(|v| format!("{v:.6e}")).unwrap_or_else(|| "-".into());
+    println!(
+        "loss: {}  val_loss: {}  best: {}",
+        f(s.last_loss),
+        f(s.val_loss),
+        s.best
+            .map(|b| format!("{:.6e} at step {}", b.val_loss, b.step))
+            .unwrap_or_else(|| "-".into())
+    );
+    println!("trained: {:.1} s on {}", s.elapsed_seconds, s.backend);
+    Ok(())
+}
+
+/// `qean inspect` of a run directory: config, checkpoints and the last metrics.
+pub fn inspect_run(dir: &Path) -> anyhow::Result<()> {
+    let config = RunConfig::load(&dir.join("config.toml"), &[]).map_err(|e| anyhow!("{e}"))?;
+    println!("run: {}", dir.display());
+    println!("config: {}", config.summary());
+    let list = qean_train::run_dir::list_checkpoints(dir)?;
+    println!("checkpoints: {}", list.len());
+    for (_, path) in &list {
+        match Checkpoint::read(path) {
+            Ok(c) => println!(
+                "  {}  val_loss {}  params_hash {}",
+                path.display(),
+                c.state
+                    .val_loss
+                    .map(|v| format!("{v:.4e}"))
+                    .unwrap_or_else(|| "-".into()),
+                &c.state.params_hash[..16]
+            ),
+            Err(e) => println!("  {}  unreadable: {e}", path.display()),
+        }
+    }
+    if let Ok(rows) = qean_train::metrics_log::read(&dir.join("metrics.csv")) {
+        if let Some(r) = rows.last() {
+            println!(
+                "last row: step {} lr {:e} loss {} val_loss {}",
+                r.step,
+                r.lr,
+                r.loss
+                    .map(|v| format!("{v:.4e}"))
+                    .unwrap_or_else(|| "-".into()),
+                r.val_loss
+                    .map(|v| format!("{v:.4e}"))
+                    .unwrap_or_else(|| "-".into())
+            );
+        }
+    }
+    Ok(())
+}

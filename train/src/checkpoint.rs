@@ -1,0 +1,169 @@
+//! `R/checkpoints/step-N/`: everything a run needs to continue exactly.
+//!
+//! - `model.bpk`: the weights (Burn burnpack);
+//! - `optimizer.bpk`: Adam's moments and step counts;
+//! - `state.json`: updates applied, the window stream's position, seeds, losses, the best
+//!   checkpoint so far, the weights' hash;
+//! - `config.toml`: the resolved run config.
+//!
+//! The RNGs: the window stream is a pure function of (seed, epoch, position), stored here;
+//! dropout draws from the device RNG, which the trainer reseeds from (seed, step) before every
+//! update; the initialisation is seeded once at step 0. So these files fix every random draw
+//! of the rest of the run.
+//!
+//! A checkpoint is written into a hidden temporary directory and renamed into place: a kill at
+//! any moment leaves complete checkpoints only.
+
+use std::path::{Path, PathBuf};
+
+use burn::tensor::Device;
+use qean_data::error::{Error, Result};
+use qean_data::windows::SamplerState;
+use qean_models::DanceModel;
+use serde::{Deserialize, Serialize};
+
+use crate::run_config::RunConfig;
+use crate::run_dir;
+
+pub const MODEL_FILE: &str = "model.bpk";
+pub const OPTIMIZER_FILE: &str = "optimizer.bpk";
+pub const STATE_FILE: &str = "state.json";
+pub const CONFIG_FILE: &str = "config.toml";
+/// Version of the checkpoint layout.
+pub const FORMAT: u32 = 1;
+
+/// The best checkpoint by validation loss.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Best {
+    pub step: u64,
+    pub val_loss: f64,
+}
+
+/// `state.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainerState {
+    pub format: u32,
+    /// Updates applied.
+    pub step: u64,
+    /// The run length the schedule was computed for.
+    pub total_steps: u64,
+    /// `train.seed`: initialisation, window stream and per-update dropout seeds derive from it.
+    pub seed: u64,
+    /// Position of the window stream.
+    pub sampler: SamplerState,
+    /// Learning rate of the next update.
+    pub next_lr: f64,
+    /// Training loss of the last update.
+    pub last_loss: Option<f64>,
+    /// Validation loss at this step, when computed.
+    pub val_loss: Option<f64>,
+    /// Best validation loss so far.
+    pub best: Option<Best>,
+    /// Training wall-clock seconds so far (all sessions).
+    pub elapsed_seconds: f64,
+    /// [`qean_models::params::params_hash`] of the saved weights.
+    pub params_hash: String,
+    /// Backend that produced it.
+    pub backend: String,
+}
+
+/// A checkpoint on disk, read.
+#[derive(Debug, Clone)]
+pub struct Checkpoint {
+    pub dir: PathBuf,
+    pub config: RunConfig,
+    pub state: TrainerState,
+}
+
+impl Checkpoint {
+    /// Reads `state.json` and `config.toml` of a checkpoint directory.
+    pub fn read(dir: &Path) -> Result<Checkpoint> {
+        if !dir.is_dir() {
+            return Err(Error::at(dir, "no such checkpoint directory"));
+        }
+        let state_path = dir.join(STATE_FILE);
+        let text = std::fs::read_to_string(&state_path).map_err(|e| Error::io(&state_path, e))?;
+        let state: TrainerState = serde_json::from_str(&text)
+            .map_err(|e| Error::at(&state_path, format!("malformed trainer state: {e}")))?;
+        if state.format != FORMAT {
+            return Err(Error::at(
+                &state_path,
+                format!(
+                    "checkpoint format {} (this build reads {FORMAT})",
+                    state.format
+                ),
+            ));
+        }
+        let config_path = dir.join(CONFIG_FILE);
+        let config = RunConfig::load(&config_path, &[]).map_err(|e| Error::msg(e.to_string()))?;
+        for f in [MODEL_FILE, OPTIMIZER_FILE] {
+            if !dir.join(f).is_file() {
+                return Err(Error::at(dir.join(f), "missing from the checkpoint"));
+            }
+        }
+        Ok(Checkpoint {
+            dir: dir.to_path_buf(),
+            config,
+            state,
+        })
+    }
+
+    /// The model with this checkpoint's weights, on `device`.
+    pub fn load_model(&self, device: &Device) -> Result<DanceModel> {
+        self.config
+            .model
+            .init(device)
+            .load_weights(&self.dir.join(MODEL_FILE))
+            .map_err(Error::msg)
+    }
+
+    /// The run directory holding this checkpoint (`R` of `R/checkpoints/step-N`).
+    pub fn run_dir(&self) -> Option<PathBuf> {
+        let parent = self.dir.parent()?;
+        (parent.file_name()? == run_dir::CHECKPOINTS)
+            .then(|| parent.parent().map(Path::to_path_buf))?
+    }
+}
+
+/// Resolves what a user named: a checkpoint directory (`R/checkpoints/step-N`), or a run
+/// directory `R` (its newest complete checkpoint). Errors name the path.
+pub fn resolve(path: &Path) -> Result<Checkpoint> {
+    if path.join(STATE_FILE).is_file() {
+        return Checkpoint::read(path);
+    }
+    if !path.is_dir() {
+        return Err(Error::at(path, "no such run or checkpoint directory"));
+    }
+    let list = run_dir::list_checkpoints(path)?;
+    // Newest first; a directory that does not read (e.g. damaged by hand) is skipped with a warning.
+    for (_, dir) in list.iter().rev() {
+        match Checkpoint::read(dir) {
+            Ok(c) => return Ok(c),
+            Err(e) => tracing::warn!("skipping unreadable checkpoint: {e}"),
+        }
+    }
+    Err(Error::at(
+        path,
+        "holds no checkpoint (expected a run directory with checkpoints/step-N/ or a step-N directory)",
+    ))
+}
+
+/// Resolves a run directory plus an optional checkpoint name (`step-N`, `N` or a path).
+pub fn resolve_in_run(run: &Path, checkpoint: Option<&str>) -> Result<Checkpoint> {
+    match checkpoint {
+        None => resolve(run),
+        Some(name) => {
+            let as_path = Path::new(name);
+            if as_path.join(STATE_FILE).is_file() {
+                return Checkpoint::read(as_path);
+            }
+            let name = if name.chars().all(|c| c.is_ascii_digit()) {
+                format!("step-{name}")
+            } else {
+                name.to_string()
+            };
+            Checkpoint::read(&run.join(run_dir::CHECKPOINTS).join(name))
+        }
+    }
+}

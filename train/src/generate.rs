@@ -1,0 +1,178 @@
+//! Dances from a trained checkpoint (`qean sample`): music features of a song, a seed motion
+//! (a pickle, a dataset sequence, or a neutral standing pose), the autoregressive sampler
+//! (SPEC §6), and the exports of qean-data (pkl, joints .npy, BVH, previews).
+
+use std::path::{Path, PathBuf};
+
+use qean_data::audio::{self, FeatureOptions, MusicFeatures};
+use qean_data::autoregress::{AudioPad, SampleOptions, SampleRequest};
+use qean_data::dataset::Dataset;
+use qean_data::error::{Error, Result};
+use qean_data::export::{export_dance, ExportOptions, ExportPaths};
+use qean_data::fk::FkRoot;
+use qean_data::motion::Motion;
+use qean_data::windows::AUDIO_DIM;
+
+use crate::checkpoint::Checkpoint;
+
+/// Where the seed motion comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SeedSource {
+    /// A neutral standing pose (SPEC's default when nothing is given).
+    Standing,
+    /// The first frames of a motion pickle.
+    Pickle(PathBuf),
+    /// The first frames of a dataset sequence.
+    Sequence { data: PathBuf, name: String },
+}
+
+/// One song to dance to.
+#[derive(Debug, Clone)]
+pub struct Song {
+    pub path: PathBuf,
+    /// Output name (default: the file stem).
+    pub name: String,
+    pub features: MusicFeatures,
+}
+
+/// Reads a song and computes its features; a song shorter than the model's music window is
+/// an error naming the file.
+pub fn load_song(path: &Path, name: Option<&str>, audio_len: usize) -> Result<Song> {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "song".into());
+    let features = audio::features_for_file(path, &FeatureOptions::for_name(&stem))?;
+    if features.frames < audio_len {
+        return Err(Error::at(
+            path,
+            format!(
+                "the song is {:.2} s long; the model needs at least {:.2} s ({audio_len} frames) of music",
+                features.frames as f64 / 60.0,
+                audio_len as f64 / 60.0
+            ),
+        ));
+    }
+    Ok(Song {
+        path: path.to_path_buf(),
+        name: name.map(str::to_string).unwrap_or(stem),
+        features,
+    })
+}
+
+/// The seed: `motion_len` frames in the model's layout.
+pub fn seed_motion(source: &SeedSource, ck: &Checkpoint) -> Result<Vec<f32>> {
+    let n = ck.config.model.motion_len;
+    let layout = ck.config.layout();
+    let (motion, path) = match source {
+        SeedSource::Standing => return Ok(Motion::standing(n, FkRoot::Smpl).to_layout(layout)),
+        SeedSource::Pickle(p) => (Motion::read_pkl(p)?, p.clone()),
+        SeedSource::Sequence { data, name } => {
+            let ds = Dataset::open(data)?;
+            let p = ds.motion_path(name);
+            if !p.is_file() {
+                return Err(Error::at(&p, format!("no motion for sequence {name}")));
+            }
+            (Motion::read_pkl(&p)?, p)
+        }
+    };
+    if motion.frames < n {
+        return Err(Error::at(
+            &path,
+            format!(
+                "the seed motion has {} frames; {n} are needed",
+                motion.frames
+            ),
+        ));
+    }
+    Ok(motion.slice(0, n).to_layout(layout))
+}
+
+/// Sampling settings of `qean sample`.
+#[derive(Debug, Clone)]
+pub struct GenerateOptions {
+    pub frames: usize,
+    pub audio_pad: AudioPad,
+    pub feedback_project: bool,
+    pub render: bool,
+    pub backend: String,
+}
+
+/// What was written for one song.
+#[derive(Debug, Clone)]
+pub struct Generated {
+    pub name: String,
+    /// Frames generated after the seed.
+    pub generated: usize,
+    pub paths: ExportPaths,
+}
+
+/// Generates a dance for every song (one batch) from the same seed and writes the exports to
+/// `out` (all files of a song or none).
+pub fn generate(
+    ck: &Checkpoint,
+    songs: &[Song],
+    seed: &[f32],
+    opts: &GenerateOptions,
+    out: &Path,
+    progress: impl FnMut(usize, usize),
+) -> Result<Vec<Generated>> {
+    // The output directory must be writable before minutes of sampling are spent.
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let probe = qean_data::fsutil::temp_sibling(&out.join("probe"));
+    std::fs::write(&probe, b"")
+        .map_err(|e| Error::at(out, format!("output directory is not writable: {e}")))?;
+    let _ = std::fs::remove_file(&probe);
+    let device = qean_models::backend::device(&opts.backend).map_err(Error::msg)?;
+    let model = ck.load_model(&device)?;
+    let sample_opts = SampleOptions {
+        frames: opts.frames,
+        audio_pad: opts.audio_pad,
+        feedback_project: opts.feedback_project,
+        layout: ck.config.layout(),
+        spec: ck.config.window_spec(),
+    };
+    let requests: Vec<SampleRequest> = songs
+        .iter()
+        .map(|s| SampleRequest {
+            seed: seed.to_vec(),
+            audio: s.features.data.clone(),
+        })
+        .collect();
+    for s in songs {
+        let l = sample_opts.generated_len(s.features.frames);
+        if l < opts.frames {
+            tracing::warn!(
+                "{}: the music ends after {} frames: generating {l} frames instead of {}",
+                s.path.display(),
+                s.features.frames,
+                opts.frames
+            );
+        }
+        debug_assert_eq!(s.features.data.len(), s.features.frames * AUDIO_DIM);
+    }
+    let dances = qean_models::sampler::sample(&model, &device, &requests, &sample_opts, progress);
+    let seed_frames = ck.config.model.motion_len;
+    let d = sample_opts.layout.dim();
+    let mut written = Vec::new();
+    for (song, dance) in songs.iter().zip(&dances) {
+        let paths = export_dance(
+            out,
+            &song.name,
+            dance,
+            sample_opts.layout,
+            &ExportOptions {
+                seed_frames,
+                beats: Some(song.features.beats.clone()),
+                render: opts.render,
+                root: FkRoot::Smpl,
+            },
+        )?;
+        written.push(Generated {
+            name: song.name.clone(),
+            generated: dance.len() / d - seed_frames,
+            paths,
+        });
+    }
+    Ok(written)
+}

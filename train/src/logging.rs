@@ -1,0 +1,25 @@
+//! Logs of a run: `tracing` events go to `R/train.log` (info and above, no colours) and to stderr
+//! (warnings, or what `QEAN_LOG` asks for).
+
+use std::fs::File;
+use std::sync::Mutex;
+
+use tracing_subscriber::filter::{EnvFilter, LevelFilter};
+use tracing_subscriber::layer::SubscriberExt;
+use tracing_subscriber::Layer;
+
+/// A subscriber writing to `file` and stderr (used for the duration of one run).
+pub fn subscriber(file: File) -> impl tracing::Subscriber + Send + Sync {
+    let to_file = tracing_subscriber::fmt::layer()
+        .with_writer(Mutex::new(file))
+        .with_ansi(false)
+        .with_target(false)
+        .with_filter(LevelFilter::INFO);
+    let stderr_filter =
+        EnvFilter::try_from_env("QEAN_LOG").unwrap_or_else(|_| EnvFilter::new("warn"));
+    let to_stderr = tracing_subscriber::fmt::layer()
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .with_filter(stderr_filter);
+    tracing_subscriber::registry().with(to_file).with(to_stderr)
+}

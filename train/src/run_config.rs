@@ -1,0 +1,430 @@
+//! One TOML file describes a training run: `[data]`, `[model]` (qean-models' schema), `[optim]`,
+//! `[schedule]` and `[train]`. Presets share defaults through `extends = "parent.toml"`, and
+//! `--set key.path=value` overrides any field from the command line.
+//!
+//! Every table is checked per file, so an unknown key or a wrong type is reported with the file
+//! and line it is on; an override is reported with the `--set` that carries it.
+
+use std::path::{Path, PathBuf};
+
+use qean_data::motion::Layout;
+use qean_data::windows::WindowSpec;
+use qean_models::config::{load_merged_table_checked, ConfigError};
+use qean_models::ModelConfig;
+use serde::{Deserialize, Serialize};
+
+use crate::schedule::ScheduleConfig;
+
+/// `[data]`: where the AIST++-layout dataset is and which splits to use.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DataConfig {
+    /// Dataset directory (AIST++ layout; `qean synth` makes one). Relative paths are relative to the
+    /// working directory; the resolved config stores it absolute.
+    pub dir: Option<PathBuf>,
+    /// Split the windows are drawn from.
+    pub train_split: String,
+    /// Split for the teacher-forced validation loss ("" turns validation off).
+    pub val_split: String,
+}
+
+impl Default for DataConfig {
+    fn default() -> Self {
+        DataConfig {
+            dir: None,
+            train_split: "train".into(),
+            val_split: "val".into(),
+        }
+    }
+}
+
+/// `[optim]`: Adam (Burn's update: ε added to the bias-corrected √v̂, PyTorch's form; SPEC §4.8).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct OptimConfig {
+    pub beta1: f64,
+    pub beta2: f64,
+    /// Set explicitly: Burn's own default is 1e-5 (PyTorch 1e-8, Keras 1e-7).
+    pub epsilon: f64,
+    /// L2 penalty added to the gradient (0 = none, as both papers).
+    pub weight_decay: f64,
+    /// Clip the global gradient norm to this value (0 = no clipping, as both papers).
+    pub grad_clip_norm: f64,
+}
+
+impl Default for OptimConfig {
+    fn default() -> Self {
+        OptimConfig {
+            beta1: 0.9,
+            beta2: 0.999,
+            epsilon: 1e-8,
+            weight_decay: 0.0,
+            grad_clip_norm: 0.0,
+        }
+    }
+}
+
+/// `[train]`: run length, batch, seed, intervals.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrainConfig {
+    /// Number of updates.
+    pub steps: u64,
+    pub batch_size: usize,
+    /// Seeds the initialisation, the window stream and dropout.
+    pub seed: u64,
+    /// Write a checkpoint every this many updates (and at the end).
+    pub checkpoint_every: u64,
+    /// Log a metrics.csv row every this many updates.
+    pub log_every: u64,
+    /// Validation loss every this many updates (0 = only at checkpoints).
+    pub val_every: u64,
+    /// Checkpoints kept: the last `keep_last`, plus the best by validation loss.
+    pub keep_last: usize,
+    /// Backend the run trains on: flex (CPU, default), ndarray (CPU) or wgpu (GPU, needs the `wgpu` build).
+    pub backend: String,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        TrainConfig {
+            steps: 500_000,
+            batch_size: 16,
+            seed: 0,
+            checkpoint_every: 1000,
+            log_every: 10,
+            val_every: 1000,
+            keep_last: 3,
+            backend: qean_models::backend::DEFAULT_BACKEND.into(),
+        }
+    }
+}
+
+/// A whole run config.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct RunConfig {
+    pub data: DataConfig,
+    pub model: ModelConfig,
+    pub optim: OptimConfig,
+    pub schedule: ScheduleConfig,
+    pub train: TrainConfig,
+}
+
+/// What one file of an `extends` chain may hold (every table optional and partial).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+struct RunFile {
+    extends: Option<toml::Value>,
+    data: Option<DataConfig>,
+    model: Option<ModelConfig>,
+    optim: Option<OptimConfig>,
+    schedule: Option<ScheduleConfig>,
+    train: Option<TrainConfig>,
+}
+
+fn check_file(path: &Path, text: &str) -> Result<(), ConfigError> {
+    toml::from_str::<RunFile>(text)
+        .map(|_| ())
+        .map_err(|e| ConfigError::from_toml(path, text, &e))
+}
+
+/// Parses `key.path=value`: the value as TOML (number, bool, string, array), else as a bare string.
+pub fn parse_override(spec: &str) -> Result<(Vec<String>, toml::Value), String> {
+    let (key, value) = spec
+        .split_once('=')
+        .ok_or_else(|| format!("--set {spec}: expected key.path=value"))?;
+    let key = key.trim();
+    let parts: Vec<String> = key.split('.').map(|s| s.trim().to_string()).collect();
+    if parts.len() < 2 || parts.iter().any(|p| p.is_empty()) {
+        return Err(format!(
+            "--set {spec}: the key must name a table and a field, e.g. train.steps"
+        ));
+    }
+    let value = value.trim();
+    let parsed = toml::from_str::<toml::Table>(&format!("v = {value}"))
+        .ok()
+        .and_then(|mut t| t.remove("v"))
+        .unwrap_or_else(|| toml::Value::String(value.to_string()));
+    Ok((parts, parsed))
+}
+
+fn nest(parts: &[String], value: toml::Value) -> toml::Table {
+    let mut table = toml::Table::new();
+    if parts.len() == 1 {
+        table.insert(parts[0].clone(), value);
+    } else {
+        table.insert(
+            parts[0].clone(),
+            toml::Value::Table(nest(&parts[1..], value)),
+        );
+    }
+    table
+}
+
+/// Sets `parts` in `table` (creating tables on the way), checking the key and the value's type.
+pub fn apply_override(table: &mut toml::Table, spec: &str, path: &Path) -> Result<(), ConfigError> {
+    let (parts, value) = parse_override(spec).map_err(|m| ConfigError::new(path, None, m))?;
+    // Check the override on its own, so the error names it rather than a line of the file.
+    let alone = nest(&parts, value.clone());
+    toml::Value::Table(alone.clone())
+        .try_into::<RunFile>()
+        .map_err(|e| ConfigError::new(path, None, format!("--set {spec}: {}", e.message())))?;
+    let mut cursor = table;
+    for p in &parts[..parts.len() - 1] {
+        let entry = cursor
+            .entry(p.clone())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        cursor = match entry {
+            toml::Value::Table(t) => t,
+            _ => {
+                return Err(ConfigError::new(
+                    path,
+                    None,
+                    format!("--set {spec}: `{p}` is not a table"),
+                ))
+            }
+        };
+    }
+    cursor.insert(parts[parts.len() - 1].clone(), value);
+    Ok(())
+}
+
+impl RunConfig {
+    /// Loads a run config (following `extends`), applies `--set` overrides, checks every value.
+    pub fn load(path: &Path, overrides: &[String]) -> Result<RunConfig, ConfigError> {
+        let mut table = load_merged_table_checked(path, &check_file)?;
+        for spec in overrides {
+            apply_override(&mut table, spec, path)?;
+        }
+        Self::from_table(table, path)
+    }
+
+    /// A run config from a merged table (`path` names it in errors).
+    pub fn from_table(table: toml::Table, path: &Path) -> Result<RunConfig, ConfigError> {
+        let config: RunConfig = toml::Value::Table(table)
+            .try_into()
+            .map_err(|e: toml::de::Error| ConfigError::new(path, None, e.message().trim()))?;
+        config
+            .validate()
+            .map_err(|m| ConfigError::new(path, None, m))?;
+        Ok(config)
+    }
+
+    /// Checks values that the types alone do not.
+    pub fn validate(&self) -> Result<(), String> {
+        self.model.validate().map_err(|m| format!("[model]: {m}"))?;
+        let t = &self.train;
+        if t.steps == 0 {
+            return Err("train.steps must be at least 1".into());
+        }
+        if t.batch_size == 0 {
+            return Err("train.batch_size must be at least 1".into());
+        }
+        if t.checkpoint_every == 0 {
+            return Err("train.checkpoint_every must be at least 1".into());
+        }
+        if t.log_every == 0 {
+            return Err("train.log_every must be at least 1".into());
+        }
+        if t.keep_last == 0 {
+            return Err("train.keep_last must be at least 1".into());
+        }
+        if !qean_models::backend::BACKENDS.contains(&t.backend.as_str()) {
+            return Err(format!(
+                "train.backend must be one of {}, got `{}`",
+                qean_models::backend::BACKENDS.join(", "),
+                t.backend
+            ));
+        }
+        let o = &self.optim;
+        let unit = |x: f64| (0.0..1.0).contains(&x);
+        if !unit(o.beta1) || !unit(o.beta2) {
+            return Err(format!(
+                "optim.beta1 and optim.beta2 must be in [0, 1), got {} and {}",
+                o.beta1, o.beta2
+            ));
+        }
+        if !(o.epsilon.is_finite() && o.epsilon > 0.0) {
+            return Err(format!("optim.epsilon must be positive, got {}", o.epsilon));
+        }
+        if !(o.weight_decay.is_finite() && o.weight_decay >= 0.0) {
+            return Err(format!(
+                "optim.weight_decay must be ≥ 0, got {}",
+                o.weight_decay
+            ));
+        }
+        if !(o.grad_clip_norm.is_finite() && o.grad_clip_norm >= 0.0) {
+            return Err(format!(
+                "optim.grad_clip_norm must be ≥ 0, got {}",
+                o.grad_clip_norm
+            ));
+        }
+        self.schedule.validate(t.steps)?;
+        for split in [&self.data.train_split, &self.data.val_split] {
+            if !split.is_empty() && split.parse::<qean_data::dataset::Split>().is_err() {
+                return Err(format!(
+                    "data split `{split}` is not one of train, val, test"
+                ));
+            }
+        }
+        if self.data.train_split.is_empty() {
+            return Err("data.train_split must name a split".into());
+        }
+        Ok(())
+    }
+
+    /// The window lengths the model sees (SPEC §1.5: the target follows the motion input).
+    pub fn window_spec(&self) -> WindowSpec {
+        WindowSpec {
+            motion_len: self.model.motion_len,
+            target_len: self.model.target_len,
+            target_shift: self.model.motion_len,
+            audio_len: self.model.audio_len,
+        }
+    }
+
+    /// The motion layout of the model.
+    pub fn layout(&self) -> Layout {
+        if self.model.motion_layout == 219 {
+            Layout::L219
+        } else {
+            Layout::L225
+        }
+    }
+
+    /// The config as TOML (what R/config.toml holds).
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).expect("a run config serialises to TOML")
+    }
+
+    /// One line: architecture, size and run length.
+    pub fn summary(&self) -> String {
+        let m = &self.model;
+        format!(
+            "{:?} hidden {} heads {} ffn {} layers {}-{}-{} position {:?} attention {:?} dropout {}; batch {} steps {} seed {}",
+            m.arch,
+            m.hidden,
+            m.heads,
+            m.ffn,
+            m.motion_layers,
+            m.audio_layers,
+            m.cross_layers,
+            m.position,
+            m.attention,
+            m.dropout,
+            self.train.batch_size,
+            self.train.steps,
+            self.train.seed
+        )
+        .to_lowercase()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+        let p = dir.join(name);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn defaults_overrides_and_round_trip() {
+        let d = tempfile::tempdir().unwrap();
+        let p = write(
+            d.path(),
+            "r.toml",
+            "[model]\nhidden = 80\nheads = 8\nffn = 320\n[train]\nsteps = 7\n",
+        );
+        let c = RunConfig::load(
+            &p,
+            &[
+                "train.batch_size=3".into(),
+                "data.dir=/tmp/x y".into(),
+                "schedule.boundaries=[2, 4]".into(),
+                "schedule.values=[1e-5, 1e-6]".into(),
+                "optim.epsilon = 1e-7".into(),
+            ],
+        )
+        .unwrap();
+        assert_eq!(c.train.steps, 7);
+        assert_eq!(c.train.batch_size, 3);
+        assert_eq!(c.data.dir.as_deref(), Some(Path::new("/tmp/x y")));
+        assert_eq!(c.schedule.boundaries, vec![2, 4]);
+        assert_eq!(c.optim.epsilon, 1e-7);
+        assert_eq!(c.model.hidden, 80);
+        // The resolved TOML reads back to the same config.
+        let back = write(d.path(), "back.toml", &c.to_toml());
+        assert_eq!(RunConfig::load(&back, &[]).unwrap(), c);
+    }
+
+    #[test]
+    fn errors_name_key_file_and_line() {
+        let d = tempfile::tempdir().unwrap();
+        let p = write(d.path(), "a.toml", "[train]\nsteps = 5\nstepz = 3\n");
+        let e = RunConfig::load(&p, &[]).unwrap_err();
+        assert_eq!((e.path.clone(), e.line), (p.clone(), Some(3)), "{e}");
+        assert!(e.message.contains("stepz"), "{e}");
+        let p = write(d.path(), "b.toml", "[optim]\n\nbeta1 = \"high\"\n");
+        let e = RunConfig::load(&p, &[]).unwrap_err();
+        assert_eq!(e.line, Some(3), "{e}");
+        let p = write(d.path(), "c.toml", "[trian]\nsteps = 5\n");
+        let e = RunConfig::load(&p, &[]).unwrap_err();
+        assert!(e.message.contains("trian") && e.line == Some(1), "{e}");
+        // In a parent file: the parent is named.
+        let parent = write(d.path(), "base/p.toml", "[schedule]\ninitail = 1e-4\n");
+        let child = write(d.path(), "ch.toml", "extends = \"base/p.toml\"\n");
+        let e = RunConfig::load(&child, &[]).unwrap_err();
+        assert_eq!((e.path.clone(), e.line), (parent, Some(2)), "{e}");
+        // Overrides.
+        let ok = write(d.path(), "ok.toml", "");
+        for (spec, want) in [
+            ("train.stepz=4", "stepz"),
+            ("train.steps=many", "--set train.steps=many"),
+            ("steps=4", "table and a field"),
+            ("train.steps", "key.path=value"),
+            ("train.steps=0", "train.steps"),
+            ("train.backend=cuda", "cuda"),
+            ("data.train_split=dev", "dev"),
+            ("schedule.values=[1e-5]", "boundaries"),
+        ] {
+            let e = RunConfig::load(&ok, &[spec.into()]).unwrap_err();
+            let s = e.to_string();
+            assert!(s.contains(want) && !s.contains('\n'), "{spec}: {s}");
+        }
+    }
+
+    #[test]
+    fn shipped_presets_load() {
+        let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs");
+        for name in [
+            "fact.toml",
+            "qean/baseline.toml",
+            "qean/spe.toml",
+            "qean/qra.toml",
+            "qean/full.toml",
+            "tiny/fact.toml",
+            "tiny/baseline.toml",
+            "tiny/spe.toml",
+            "tiny/qra.toml",
+            "tiny/full.toml",
+        ] {
+            let c =
+                RunConfig::load(&configs.join(name), &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(c.train.steps > 0, "{name}");
+        }
+        let fact = RunConfig::load(&configs.join("fact.toml"), &[]).unwrap();
+        assert_eq!(fact.train.batch_size, 32);
+        assert_eq!(fact.schedule.boundaries, vec![100_000, 150_000]);
+        assert_eq!(fact.optim.epsilon, 1e-7);
+        let full = RunConfig::load(&configs.join("qean/full.toml"), &[]).unwrap();
+        assert_eq!(full.train.batch_size, 16);
+        assert_eq!(full.schedule.boundaries, vec![90_000, 150_000]);
+        assert_eq!(full.optim.epsilon, 1e-8);
+    }
+}
