@@ -149,7 +149,7 @@ mod tests {
             let scale = [1e-10, 1e-3, 1.0, 3.1][rng.random_range(0..4)];
             let r: [f64; 3] = std::array::from_fn(|_| rng.random_range(-1.0..1.0) * scale);
             let n = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
-            if n > 3.14 {
+            if n > std::f64::consts::PI - 0.0016 {
                 continue;
             }
             let m = axis_angle_to_matrix(r);

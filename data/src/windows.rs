@@ -423,6 +423,7 @@ mod tests {
             seconds: 5.0,
             seed: 2,
             sample_rate: 8000,
+            real_music: Vec::new(),
         };
         crate::synth::generate(&dir, &opts).unwrap();
         let ds = Dataset::open(&dir).unwrap();

@@ -49,6 +49,11 @@ pub struct Args {
     /// Checkpoint mode: backend for sampling (default: the run's).
     #[arg(long)]
     pub backend: Option<String>,
+    /// Checkpoint mode: also score two chance baselines on the same protocol: "frozen" (each seed's
+    /// last frame held for the generated length) and "random pairing" (each generated dance scored
+    /// against another sequence's music). A trained model should beat both.
+    #[arg(long, requires = "run")]
+    pub baselines: bool,
     /// Directory of the music, <music ID>.wav (or .ogg/.mp3/.flac); beats tracked from the audio as
     /// --ba-music-beats says. Non-AIST music IDs are not recognised.
     #[arg(long, conflicts_with = "beats")]
@@ -246,7 +251,7 @@ pub fn init_logging(verbose: u8) {
         _ => "debug",
     };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(format!("{level},symphonia=off")));
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)

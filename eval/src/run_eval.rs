@@ -54,6 +54,65 @@ pub struct RunReport {
     pub frames: usize,
     pub pairings: Vec<Pairing>,
     pub reports: Vec<MetricsReport>,
+    /// With `--baselines`: the chance baselines, scored like the first report.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baselines: Option<Baselines>,
+}
+
+/// Chance baselines of checkpoint mode (`--baselines`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Baselines {
+    /// Every dance replaced by its seed's last frame, held: no motion at all.
+    pub frozen: MetricsReport,
+    /// The generated dances, each scored against another music ID's beats (a derangement of the
+    /// music IDs); `None` when all sequences share one music ID.
+    pub random_pairing: Option<MetricsReport>,
+}
+
+/// The frozen baseline: seed frames, then the last seed frame held for the rest of each sequence.
+pub fn frozen_dances(generated: &[Sequence], seed_frames: usize) -> Vec<Sequence> {
+    generated
+        .iter()
+        .map(|s| {
+            let keep = seed_frames.min(s.joints.len());
+            let mut joints = s.joints[..keep].to_vec();
+            if let Some(&last) = joints.last() {
+                joints.resize(s.joints.len(), last);
+            }
+            Sequence {
+                name: s.name.clone(),
+                joints,
+            }
+        })
+        .collect()
+}
+
+/// The random-pairing baseline: each name's music ID (5th `_` field) replaced by the next distinct
+/// music ID in sorted order, so no dance keeps its own music. `None` with fewer than two music IDs.
+pub fn repaired_dances(generated: &[Sequence]) -> Option<Vec<Sequence>> {
+    let mut ids: Vec<String> = generated
+        .iter()
+        .filter_map(|s| music_id_of(&s.name))
+        .collect();
+    ids.sort();
+    ids.dedup();
+    if ids.len() < 2 {
+        return None;
+    }
+    let out = generated
+        .iter()
+        .map(|s| {
+            let mut fields: Vec<String> = s.name.split('_').map(str::to_string).collect();
+            if let Some(pos) = music_id_of(&s.name).and_then(|m| ids.iter().position(|x| *x == m)) {
+                fields[4] = ids[(pos + 1) % ids.len()].clone();
+            }
+            Sequence {
+                name: fields.join("_"),
+                joints: s.joints.clone(),
+            }
+        })
+        .collect();
+    Some(out)
 }
 
 /// The pairs of a protocol over the test + val sequences.
@@ -259,8 +318,35 @@ pub fn evaluate_run(args: &Args, run: &Path) -> anyhow::Result<(EvaluationFile, 
             ),
         })
         .collect();
-    let rows: Vec<(&str, &MetricsReport)> =
+    let baselines = match (args.baselines, args.configs().into_iter().next()) {
+        (true, Some(mut cfg)) => {
+            cfg.seed_frames = seed_frames;
+            cfg.music_offset = 0;
+            let frozen = evaluate(
+                &frozen_dances(&generated, seed_frames),
+                &reference,
+                Some(&lookup),
+                &cfg,
+            )?;
+            let random_pairing = match repaired_dances(&generated) {
+                Some(g) => Some(evaluate(&g, &reference, Some(&lookup), &cfg)?),
+                None => None,
+            };
+            Some(Baselines {
+                frozen,
+                random_pairing,
+            })
+        }
+        _ => None,
+    };
+    let mut rows: Vec<(&str, &MetricsReport)> =
         labels.iter().map(String::as_str).zip(&reports).collect();
+    if let Some(b) = &baselines {
+        rows.push(("chance: frozen seed pose", &b.frozen));
+        if let Some(r) = &b.random_pairing {
+            rows.push(("chance: random music pairing", r));
+        }
+    }
     let table = render_markdown(&rows);
     let report = RunReport {
         checkpoint: ck.dir.clone(),
@@ -269,6 +355,7 @@ pub fn evaluate_run(args: &Args, run: &Path) -> anyhow::Result<(EvaluationFile, 
         frames: args.max_frames,
         pairings: pairings_out,
         reports: reports.clone(),
+        baselines,
     };
     write_json_atomic(&out_dir.join("report.json"), &report)?;
     let md = format!(

@@ -34,6 +34,7 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
         seconds: a.seconds,
         seed: a.seed,
         sample_rate: a.sample_rate,
+        real_music: Vec::new(),
     };
     let report = synth::generate(&a.out, &opts)?;
     let count = |s: &str| report.splits.get(s).map_or(0, |v| v.len());

@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 
 mod data_cmds;
+mod demo_cmd;
 mod features_cmd;
 mod sample_cmd;
 mod train_cmds;
@@ -14,7 +15,7 @@ mod train_cmds;
     about = "Music-conditioned 3D dance generation: FACT and QEAN, AIST++ data, librosa-exact features, metrics",
     long_about = "Music-conditioned 3D dance generation: FACT (Li et al., ICCV 2021) and QEAN (Zhou et al.), \
 with AIST++ data handling, librosa-0.8.1-exact music features and the standard AIST++ metrics.\n\n\
-Start with `qean synth --out synth` to make a small AIST++-format dataset, then `qean inspect synth`."
+Start with `qean demo --quick`: the whole system on embedded data in a few minutes."
 )]
 pub struct Cli {
     /// More log output (-v info, -vv debug). Logs go to stderr; QEAN_LOG=... overrides.
@@ -38,6 +39,7 @@ pub enum Command {
     Sample(sample_cmd::SampleArgs),
     /// AIST++ metrics (FID_k, FID_g, Dist_k, Dist_g, BeatAlign); the same as the `qean-eval` binary.
     Eval(qean_eval::cli::Args),
+    Demo(demo_cmd::DemoArgs),
 }
 
 pub fn init_logging(verbose: u8) {
@@ -46,8 +48,9 @@ pub fn init_logging(verbose: u8) {
         1 => "info",
         _ => "debug",
     };
+    // The audio decoders' own log lines are noise next to our one-line errors.
     let filter = tracing_subscriber::EnvFilter::try_from_env("QEAN_LOG")
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(format!("{level},symphonia=off")));
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
@@ -62,6 +65,7 @@ pub fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Sweep(a) => train_cmds::sweep(a),
         Command::Export(a) => train_cmds::export(a),
         Command::Sample(a) => sample_cmd::sample(a),
+        Command::Demo(a) => demo_cmd::demo(a),
         other => run_data(other).map(|()| 0),
     }
 }
@@ -96,7 +100,11 @@ fn run_data(command: Command) -> anyhow::Result<()> {
             print!("{table}");
             Ok(())
         }
-        Command::Train(_) | Command::Sweep(_) | Command::Export(_) | Command::Sample(_) => {
+        Command::Train(_)
+        | Command::Sweep(_)
+        | Command::Export(_)
+        | Command::Sample(_)
+        | Command::Demo(_) => {
             unreachable!("dispatched in run")
         }
     }

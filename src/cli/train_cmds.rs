@@ -44,7 +44,7 @@ pub struct TrainArgs {
 }
 
 /// A stop flag set by Ctrl-C (SIGINT) or SIGTERM: the trainer checkpoints and stops.
-fn stop_flag() -> Arc<AtomicBool> {
+pub(crate) fn stop_flag() -> Arc<AtomicBool> {
     let flag = Arc::new(AtomicBool::new(false));
     let f = flag.clone();
     let installed = ctrlc::set_handler(move || {

@@ -67,13 +67,17 @@ pub fn role(name: &str) -> String {
     };
     let what = match owner {
         "qkv" => "fused q, k, v projection (columns: q | k | v)",
-        "out" | "proj" | "output_proj" if name.contains("attention") => {
-            "attention output projection"
+        "out" | "proj" | "output_proj" | "output"
+            if name.contains("attention") || name.contains("mixer") =>
+        {
+            "attention output projection (hidden → hidden)"
         }
         "norm1" | "attention_norm" => "layer norm before attention",
         "norm2" | "mlp_norm" | "ffn_norm" => "layer norm before the MLP",
         "fc1" | "linear1" | "dense1" => "MLP first dense (tanh-GELU after)",
         "fc2" | "linear2" | "dense2" => "MLP second dense",
+        "expand" => "MLP expand (hidden → ffn, tanh-GELU after)",
+        "contract" => "MLP contract (ffn → hidden)",
         "motion_embed" => "motion input dense (motion_dim → hidden)",
         "audio_embed" => "audio input dense (35 → hidden)",
         "motion_pos" | "audio_pos" => "learned absolute position embedding",
@@ -104,7 +108,7 @@ pub fn role(name: &str) -> String {
 fn layer_pattern(name: &str) -> (String, Option<usize>) {
     let parts: Vec<&str> = name.split('.').collect();
     for (k, w) in parts.windows(2).enumerate() {
-        if w[0] == "layers" {
+        if w[0] == "layers" || w[0] == "blocks" {
             if let Ok(i) = w[1].parse::<usize>() {
                 let mut p: Vec<String> = parts.iter().map(|s| s.to_string()).collect();
                 p[k + 1] = "{i}".into();
@@ -120,8 +124,9 @@ fn layer_pattern(name: &str) -> (String, Option<usize>) {
 pub fn weights_table(config: &ModelConfig) -> String {
     let model = config.init(&Device::flex());
     let shapes = parameter_shapes(&model);
-    // pattern → (first position, shape, min i, max i)
-    let mut rows: BTreeMap<usize, (String, Vec<usize>, Option<(usize, usize)>)> = BTreeMap::new();
+    // first position → (pattern, shape, layer range)
+    type Row = (String, Vec<usize>, Option<(usize, usize)>);
+    let mut rows: BTreeMap<usize, Row> = BTreeMap::new();
     let mut index: HashMap<(String, Vec<usize>), usize> = HashMap::new();
     for (pos, p) in shapes.iter().enumerate() {
         let (pattern, layer) = layer_pattern(&p.name);
@@ -218,7 +223,7 @@ Layouts (Burn's, not PyTorch's):\n\n\
 - Layer norms have `gamma` (scale) and `beta` (shift), ε = 1e-6 as mint.\n\
 - Position embeddings are `[tokens, hidden]`.\n\
 - Rows with `{i}` stand for one tensor per layer, `i` over the range given.\n\n\
-This file is generated from the presets (`QEAN_BLESS=1 cargo test -p qean-train --test weights_doc`\n\
+This file is generated from the presets (`QEAN_BLESS=1 cargo test --workspace --test weights_doc`\n\
 rewrites it); a test checks that it lists every tensor of each preset with its shape.\n",
     );
     for (file, what) in DOCUMENTED_PRESETS {

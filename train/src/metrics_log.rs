@@ -145,7 +145,7 @@ mod tests {
             step,
             lr: 1e-4,
             loss: Some(loss),
-            val_loss: if step % 20 == 0 {
+            val_loss: if step.is_multiple_of(20) {
                 Some(loss * 2.0)
             } else {
                 None

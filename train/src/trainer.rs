@@ -632,10 +632,10 @@ fn run_loop(s: &mut Session, opts: &TrainOptions) -> Result<TrainOutcome> {
         s.step += 1;
         s.last_loss = Some(value);
 
-        let at_checkpoint = s.step % t.checkpoint_every == 0 || s.step == total;
-        let at_val = (t.val_every > 0 && s.step % t.val_every == 0) || at_checkpoint;
+        let at_checkpoint = s.step.is_multiple_of(t.checkpoint_every) || s.step == total;
+        let at_val = (t.val_every > 0 && s.step.is_multiple_of(t.val_every)) || at_checkpoint;
         let val = if at_val { s.validate() } else { None };
-        if s.step % t.log_every == 0 || val.is_some() || s.step == total {
+        if s.step.is_multiple_of(t.log_every) || val.is_some() || s.step == total {
             s.metrics.append(&Row {
                 step: s.step,
                 lr,

@@ -19,7 +19,7 @@ fn weights_doc_lists_every_tensor_of_every_preset() {
     let doc = std::fs::read_to_string(&doc_path).unwrap();
     assert!(
         doc == generated,
-        "docs/weights.md is out of date: QEAN_BLESS=1 cargo test -p qean-train --test weights_doc"
+        "docs/weights.md is out of date: QEAN_BLESS=1 cargo test --workspace --test weights_doc"
     );
     for (file, _) in DOCUMENTED_PRESETS {
         let config = qean_models::config::load_model_config(&configs.join(file)).unwrap();

@@ -358,10 +358,7 @@ mod tests {
         let sheet = contact_sheet(&p, 6, 2);
         // Some ink of every limb colour is drawn.
         for col in [LEFT, RIGHT, CENTRE, ORANGE] {
-            assert!(
-                sheet.pixels.iter().any(|&c| c == col),
-                "colour {col} missing"
-            );
+            assert!(sheet.pixels.contains(&col), "colour {col} missing");
         }
         let png = sheet.to_png();
         assert_eq!(&png[1..4], b"PNG");

@@ -48,6 +48,39 @@ pub struct SynthOptions {
     pub seed: u64,
     /// Sample rate of the written music. 30720 Hz (the feature rate) avoids resampling later.
     pub sample_rate: u32,
+    /// Real recordings that replace the procedural track of some music IDs (the dances then follow the
+    /// recordings' tracked beats).
+    pub real_music: Vec<RealTrack>,
+}
+
+/// A real recording standing in for one music ID's procedural track.
+#[derive(Debug, Clone)]
+pub struct RealTrack {
+    /// The AIST++ music ID it replaces (it must be one the dataset uses).
+    pub music_id: String,
+    /// Where it came from (recorded in synth.json).
+    pub source: String,
+    /// Mono samples at the feature rate, 30720 Hz.
+    pub samples: Vec<f64>,
+}
+
+impl RealTrack {
+    /// Decode an audio file (any format `qean features` reads) to stand in for `music_id`.
+    pub fn load(path: &Path, music_id: &str) -> Result<RealTrack> {
+        if crate::names::tempo_prior(music_id).is_none() {
+            return Err(Error::msg(format!(
+                "'{music_id}' is not an AIST++ music ID (e.g. mBR1)"
+            )));
+        }
+        let audio = crate::audio::decode::load_audio(path, &Default::default())?;
+        Ok(RealTrack {
+            music_id: music_id.to_string(),
+            source: path
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+            samples: audio.samples,
+        })
+    }
 }
 
 impl Default for SynthOptions {
@@ -57,6 +90,7 @@ impl Default for SynthOptions {
             seconds: 16.0,
             seed: 0,
             sample_rate: 30720,
+            real_music: Vec::new(),
         }
     }
 }
@@ -78,6 +112,15 @@ pub struct MusicInfo {
     pub first_beat: f64,
     pub seconds: f64,
     pub phrase_chords: Vec<usize>,
+    /// The recording used instead of procedural music, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub source: Option<String>,
+}
+
+/// One music ID's track as the dances see it: beat times and the chord of each phrase.
+struct Track {
+    info: MusicInfo,
+    beat_times: Vec<f64>,
 }
 
 fn groove_of(genre: &str) -> Groove {
@@ -180,6 +223,18 @@ fn write_dataset(
     music_ids.sort();
     music_ids.dedup();
 
+    for t in &opts.real_music {
+        if !music_ids.contains(&t.music_id) {
+            return Err(Error::msg(format!(
+                "real track {}: music ID {} is not used by a {}-sequence dataset (used: {})",
+                t.source,
+                t.music_id,
+                all.len(),
+                music_ids.join(" ")
+            )));
+        }
+    }
+
     // Music: one track per music ID, a little longer than the longest dance.
     let music_seconds = opts.seconds + 1.0;
     let mut music = BTreeMap::new();
@@ -188,24 +243,36 @@ fn write_dataset(
         let bpm = tempo_prior(id).expect("planned IDs are valid");
         let genre = &id[1..3];
         let spec = MusicSpec::random(&mut rng, bpm, groove_of(genre), music_seconds);
-        let samples = music::render(&spec, opts.sample_rate, &mut rng);
-        crate::wav::write_pcm16(
-            &dir.join("wav").join(format!("{id}.wav")),
-            &samples,
-            opts.sample_rate,
-        )?;
-        music.insert(id.clone(), spec);
+        let path = dir.join("wav").join(format!("{id}.wav"));
+        let track = match opts.real_music.iter().find(|t| &t.music_id == id) {
+            Some(real) => write_real_track(&path, real, spec, music_seconds, opts.sample_rate)?,
+            None => {
+                let samples = music::render(&spec, opts.sample_rate, &mut rng);
+                crate::wav::write_pcm16(&path, &samples, opts.sample_rate)?;
+                Track {
+                    beat_times: spec.beat_times(),
+                    info: MusicInfo {
+                        bpm: spec.bpm,
+                        first_beat: spec.first_beat,
+                        seconds: spec.seconds,
+                        phrase_chords: spec.phrase_chords,
+                        source: None,
+                    },
+                }
+            }
+        };
+        music.insert(id.clone(), track);
     }
 
     for name in &all {
         let parsed = crate::names::SequenceName::parse(name)?;
-        let spec = &music[&parsed.music_id];
+        let track = &music[&parsed.music_id];
         let mut rng = ChaCha8Rng::seed_from_u64(opts.seed ^ fnv(name));
         let seconds = opts.seconds * rng.random_range(0.85..=1.0);
         let frames = (seconds * FPS).round() as usize;
         let grid = BeatGrid {
-            beat_times: spec.beat_times(),
-            phrase_chords: spec.phrase_chords.clone(),
+            beat_times: track.beat_times.clone(),
+            phrase_chords: track.info.phrase_chords.clone(),
         };
         let style = DanceStyle {
             genre: parsed.genre.clone(),
@@ -235,24 +302,70 @@ fn write_dataset(
             .iter()
             .map(|(s, n)| (s.name().to_string(), n.clone()))
             .collect(),
-        music: music
-            .iter()
-            .map(|(id, s)| {
-                (
-                    id.clone(),
-                    MusicInfo {
-                        bpm: s.bpm,
-                        first_beat: s.first_beat,
-                        seconds: s.seconds,
-                        phrase_chords: s.phrase_chords.clone(),
-                    },
-                )
-            })
-            .collect(),
+        music: music.into_iter().map(|(id, t)| (id, t.info)).collect(),
     };
     let json = serde_json::to_vec_pretty(&report).map_err(|e| Error::msg(e.to_string()))?;
     atomic_write(&dir.join("synth.json"), &json)?;
     Ok(report)
+}
+
+/// Write a recording as `path` (looped or cut to `seconds`) and track its beats as the features will
+/// (the music ID's tempo prior), so the dances follow what the model will hear.
+fn write_real_track(
+    path: &Path,
+    real: &RealTrack,
+    spec: MusicSpec,
+    seconds: f64,
+    sample_rate: u32,
+) -> Result<Track> {
+    use crate::audio::features::{music_features, FeatureOptions, COL_BEAT};
+    let sr = crate::audio::SR as f64;
+    let n = (seconds * sr).round() as usize;
+    if real.samples.len() < sr as usize {
+        return Err(Error::msg(format!(
+            "real track {}: shorter than 1 s",
+            real.source
+        )));
+    }
+    let samples: Vec<f64> = real.samples.iter().copied().cycle().take(n).collect();
+    let feats = music_features(&samples, &FeatureOptions::for_name(&real.music_id))?;
+    let beat_times: Vec<f64> = feats
+        .column(COL_BEAT)
+        .iter()
+        .enumerate()
+        .filter(|(_, &v)| v > 0.5)
+        .map(|(i, _)| i as f64 / FPS)
+        .collect();
+    if beat_times.len() < 4 {
+        return Err(Error::msg(format!(
+            "real track {}: only {} beats found in {seconds} s",
+            real.source,
+            beat_times.len()
+        )));
+    }
+    let out = if sample_rate == crate::audio::SR {
+        samples
+    } else {
+        crate::audio::resample::resample(
+            &samples,
+            sr,
+            sample_rate as f64,
+            crate::audio::resample::Resampler::KaiserFast,
+            false,
+        )?
+    };
+    crate::wav::write_pcm16(path, &out, sample_rate)?;
+    let span = beat_times[beat_times.len() - 1] - beat_times[0];
+    Ok(Track {
+        info: MusicInfo {
+            bpm: 60.0 * (beat_times.len() - 1) as f64 / span,
+            first_beat: beat_times[0],
+            seconds,
+            phrase_chords: spec.phrase_chords,
+            source: Some(real.source.clone()),
+        },
+        beat_times,
+    })
 }
 
 #[cfg(test)]
@@ -298,6 +411,52 @@ mod tests {
     }
 
     #[test]
+    fn real_track_replaces_a_music_id_and_the_dances_follow_its_beats() {
+        let trumpet = crate::testdata::shared_dir().join("music/sorohanro_-_solo-trumpet-06.ogg");
+        let real = RealTrack::load(&trumpet, "mBR1").unwrap();
+        let root = tempfile::tempdir().unwrap();
+        let dir = root.path().join("ds");
+        let opts = SynthOptions {
+            sequences: 12,
+            seconds: 6.0,
+            seed: 3,
+            real_music: vec![real.clone()],
+            ..Default::default()
+        };
+        let report = generate(&dir, &opts).unwrap();
+        let info = &report.music["mBR1"];
+        assert_eq!(
+            info.source.as_deref(),
+            Some("sorohanro_-_solo-trumpet-06.ogg")
+        );
+        // The dances follow the tracked beats of the loop (whatever tempo the tracker hears in it).
+        assert!(info.bpm > 60.0 && info.bpm < 200.0, "bpm {}", info.bpm);
+        assert!(info.first_beat < 2.0, "first beat {}", info.first_beat);
+        assert!(report.music.values().filter(|m| m.source.is_none()).count() >= 5);
+        // The written track is the recording, looped to 7 s.
+        let a = crate::audio::load_audio(&dir.join("wav/mBR1.wav"), &Default::default()).unwrap();
+        assert!((a.duration - 7.0).abs() < 0.01, "{}", a.duration);
+        let n = real.samples.len().min(a.samples.len());
+        let err = real.samples[..n]
+            .iter()
+            .zip(&a.samples[..n])
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-3, "max error {err}");
+        // A music ID the dataset does not use is refused.
+        let bad = SynthOptions {
+            real_music: vec![RealTrack {
+                music_id: "mKR5".into(),
+                ..real
+            }],
+            ..opts
+        };
+        let e = generate(&root.path().join("ds2"), &bad).unwrap_err();
+        assert!(e.to_string().contains("mKR5"), "{e}");
+        assert!(!root.path().join("ds2").exists());
+    }
+
+    #[test]
     fn generate_small_dataset_deterministically() {
         let root = tempfile::tempdir().unwrap();
         let opts = SynthOptions {
@@ -305,6 +464,7 @@ mod tests {
             seconds: 5.0,
             seed: 11,
             sample_rate: 8000,
+            real_music: Vec::new(),
         };
         let a = root.path().join("a");
         let b = root.path().join("b");

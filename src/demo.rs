@@ -1,0 +1,548 @@
+//! `qean demo`: the whole system on embedded data, with nothing to download. A small synthetic
+//! AIST++-format dataset whose music includes two real, freely licensed recordings; the tiny FACT
+//! and tiny full-QEAN presets trained on it; a 1200-frame dance for a held-out real song (Kevin
+//! MacLeod's "Vibe Ace") from each model, with previews; both models scored on the synthetic test
+//! + val split next to two chance baselines; a table and the path of every artefact.
+//!
+//! Every stage is resumable: a second run reuses what the first finished (the dataset, the
+//! features, finished or interrupted training runs, dances and reports of the same checkpoint).
+
+use std::ffi::OsStr;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use clap::Parser;
+use indicatif::{ProgressBar, ProgressStyle};
+use qean_data::fsutil::atomic_write;
+use qean_data::synth::{self, RealTrack, SynthOptions};
+use qean_eval::report::MetricsReport;
+use qean_eval::run_eval::RunReport;
+use qean_train::checkpoint::Checkpoint;
+use qean_train::generate::{self, GenerateOptions, SeedSource};
+use qean_train::{ProgressMode, RunConfig, Start, TrainOptions};
+
+/// A file shipped inside the binary.
+struct Asset {
+    path: &'static str,
+    bytes: &'static [u8],
+}
+
+macro_rules! asset {
+    ($p:literal) => {
+        Asset {
+            path: $p,
+            bytes: include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/", $p)),
+        }
+    };
+}
+
+/// The real music (with licences) and the presets the demo trains.
+const ASSETS: &[Asset] = &[
+    asset!("assets/music/Kevin_MacLeod_-_Vibe_Ace.ogg"),
+    asset!("assets/music/Kevin_MacLeod_-_Vibe_Ace.LICENSE.txt"),
+    asset!("assets/music/Brahms_Hungarian_Dance_5.ogg"),
+    asset!("assets/music/Brahms_Hungarian_Dance_5.LICENSE.txt"),
+    asset!("assets/music/sorohanro_-_solo-trumpet-06.ogg"),
+    asset!("assets/music/sorohanro_-_solo-trumpet-06.LICENSE.txt"),
+    asset!("configs/fact.toml"),
+    asset!("configs/tiny/fact.toml"),
+    asset!("configs/qean/baseline.toml"),
+    asset!("configs/tiny/baseline.toml"),
+    asset!("configs/tiny/full.toml"),
+];
+
+/// The held-out song the demo dances to (not in the dataset).
+const HELD_OUT: &str = "assets/music/Kevin_MacLeod_-_Vibe_Ace.ogg";
+/// Real recordings standing in for two training music IDs: (file, music ID). The trumpet loop is
+/// at 90 BPM, mBR1's tempo.
+const TRAIN_TRACKS: [(&str, &str); 2] = [
+    ("assets/music/sorohanro_-_solo-trumpet-06.ogg", "mBR1"),
+    ("assets/music/Brahms_Hungarian_Dance_5.ogg", "mLO0"),
+];
+
+/// How big the demo is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Budget {
+    pub sequences: usize,
+    pub seconds: f64,
+    /// Seed motion and music window lengths (frames): shorter than mint's 120 / 240 so that CPU
+    /// training fits the budget (attention cost grows with the square of the window).
+    pub motion_len: usize,
+    pub audio_len: usize,
+    pub steps: u64,
+    pub batch_size: usize,
+    /// Frames generated for the held-out song.
+    pub dance_frames: usize,
+}
+
+impl Budget {
+    /// ≤ 15 minutes on 2 CPU cores (default) or ≤ 3 minutes (`--quick`).
+    pub fn new(quick: bool) -> Budget {
+        if quick {
+            Budget {
+                sequences: 24,
+                seconds: 8.0,
+                motion_len: 30,
+                audio_len: 60,
+                steps: 100,
+                batch_size: 8,
+                dance_frames: 1200,
+            }
+        } else {
+            Budget {
+                sequences: 60,
+                seconds: 16.0,
+                motion_len: 60,
+                audio_len: 120,
+                steps: 500,
+                batch_size: 8,
+                dance_frames: 1200,
+            }
+        }
+    }
+}
+
+/// Options of [`run`].
+#[derive(Debug, Clone)]
+pub struct DemoOptions {
+    pub out: PathBuf,
+    pub budget: Budget,
+    /// Set (e.g. by Ctrl-C) to stop training with a checkpoint; the next run resumes.
+    pub stop: Arc<AtomicBool>,
+    pub progress: ProgressMode,
+}
+
+/// One trained model's results.
+#[derive(Debug, Clone)]
+pub struct ModelResult {
+    pub label: String,
+    pub run_dir: PathBuf,
+    pub checkpoint: PathBuf,
+    pub train_seconds: f64,
+    pub final_loss: Option<f64>,
+    pub dance: Vec<PathBuf>,
+    pub report_md: PathBuf,
+    pub report: RunReport,
+}
+
+/// What the demo produced.
+#[derive(Debug, Clone)]
+pub struct DemoResult {
+    pub dataset: PathBuf,
+    pub models: Vec<ModelResult>,
+    pub table: String,
+    pub summary: PathBuf,
+    /// False when training was interrupted (the table is then not written).
+    pub finished: bool,
+}
+
+fn say(msg: impl AsRef<str>) {
+    eprintln!("[demo] {}", msg.as_ref());
+}
+
+/// Writes the embedded files under `out` (skipping those already there with the same bytes).
+fn write_assets(out: &Path) -> anyhow::Result<()> {
+    for a in ASSETS {
+        let path = out.join(a.path);
+        if std::fs::read(&path).ok().as_deref() == Some(a.bytes) {
+            continue;
+        }
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent)
+                .with_context(|| format!("{}: cannot create", parent.display()))?;
+        }
+        atomic_write(&path, a.bytes)?;
+    }
+    Ok(())
+}
+
+fn dataset(out: &Path, budget: &Budget) -> anyhow::Result<PathBuf> {
+    let dir = out.join("data");
+    let info = dir.join("synth.json");
+    if info.is_file() {
+        let v: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(&info).with_context(|| format!("{}: cannot read", info.display()))?,
+        )
+        .with_context(|| format!("{}: not a synth report", info.display()))?;
+        let n: usize = v["splits"].as_object().map_or(0, |m| {
+            m.values().filter_map(|x| x.as_array()).map(Vec::len).sum()
+        });
+        if n != budget.sequences || v["seconds"].as_f64() != Some(budget.seconds) {
+            bail!(
+                "{}: made for another demo size ({n} sequences of {} s, this run wants {} of {} s);                  use another --out",
+                dir.display(),
+                v["seconds"],
+                budget.sequences,
+                budget.seconds
+            );
+        }
+        say(format!("dataset: reusing {}", dir.display()));
+        return Ok(dir);
+    }
+    let spinner = ProgressBar::new_spinner();
+    spinner.set_message(format!(
+        "dataset: {} synthetic sequences of ~{} s (2 real recordings among the music)",
+        budget.sequences, budget.seconds
+    ));
+    spinner.enable_steady_tick(std::time::Duration::from_millis(200));
+    let mut real_music = Vec::new();
+    for (file, id) in TRAIN_TRACKS {
+        real_music.push(RealTrack::load(&out.join(file), id)?);
+    }
+    let report = synth::generate(
+        &dir,
+        &SynthOptions {
+            sequences: budget.sequences,
+            seconds: budget.seconds,
+            seed: 0,
+            real_music,
+            ..Default::default()
+        },
+    )?;
+    spinner.finish_and_clear();
+    let count = |s: &str| report.splits.get(s).map_or(0, |v| v.len());
+    say(format!(
+        "dataset: {} ({} train, {} val, {} test sequences, {} music tracks)",
+        dir.display(),
+        count("train"),
+        count("val"),
+        count("test"),
+        report.music.len()
+    ));
+    Ok(dir)
+}
+
+fn train_model(
+    opts: &DemoOptions,
+    data: &Path,
+    name: &str,
+    preset: &str,
+) -> anyhow::Result<Option<(Checkpoint, f64, Option<f64>)>> {
+    let b = &opts.budget;
+    let steps = b.steps;
+    let every = (steps / 3).max(1);
+    let overrides = vec![
+        format!(
+            "data.dir={}",
+            toml::Value::String(data.to_string_lossy().into_owned())
+        ),
+        format!("model.motion_len={}", b.motion_len),
+        format!("model.audio_len={}", b.audio_len),
+        format!("train.steps={steps}"),
+        format!("train.batch_size={}", b.batch_size),
+        format!("train.checkpoint_every={every}"),
+        format!("train.val_every={every}"),
+        format!("train.log_every={}", (steps / 30).max(1)),
+        format!("schedule.boundaries=[{}]", (steps * 3 / 4).max(1)),
+    ];
+    let config =
+        RunConfig::load(&opts.out.join(preset), &overrides).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let run_dir = opts.out.join("runs").join(name);
+    say(format!(
+        "train {name}: {preset}, {steps} steps → {}",
+        run_dir.display()
+    ));
+    let out = qean_train::train(
+        config,
+        &TrainOptions {
+            run_dir: run_dir.clone(),
+            start: Start::Auto,
+            progress: opts.progress,
+            stop: opts.stop.clone(),
+            label: name.to_string(),
+        },
+    )?;
+    if out.interrupted {
+        say(format!(
+            "interrupted: {name} checkpointed at step {}; run the demo again to continue",
+            out.step
+        ));
+        return Ok(None);
+    }
+    let ck = Checkpoint::read(&out.checkpoint)?;
+    Ok(Some((ck, out.seconds, out.last_loss)))
+}
+
+/// A stage marker: the stage's output is current if the marker names the same checkpoint.
+fn marker_matches(path: &Path, ck: &Checkpoint) -> bool {
+    std::fs::read_to_string(path).ok().as_deref() == Some(&marker_text(ck))
+}
+
+fn marker_text(ck: &Checkpoint) -> String {
+    format!("step {}\n", ck.state.step)
+}
+
+fn dance(
+    out: &Path,
+    data: &Path,
+    name: &str,
+    ck: &Checkpoint,
+    frames: usize,
+) -> anyhow::Result<Vec<PathBuf>> {
+    let dir = out.join("dances").join(name);
+    let stem = "Vibe_Ace";
+    let marker = dir.join(".done");
+    let expected: Vec<PathBuf> = ["pkl", "joints.npy", "bvh", "png", "gif"]
+        .iter()
+        .map(|e| dir.join(format!("{stem}.{e}")))
+        .collect();
+    if marker_matches(&marker, ck) && expected.iter().all(|p| p.is_file()) {
+        say(format!("dance {name}: reusing {}", dir.display()));
+        return Ok(expected);
+    }
+    let song = generate::load_song(&out.join(HELD_OUT), Some(stem), ck.config.model.audio_len)?;
+    // Seed: the opening of the first test sequence (a pose the models know, unlike a T-pose).
+    let ds = qean_data::dataset::Dataset::open(data)?;
+    let first = ds
+        .split(qean_data::dataset::Split::Test)
+        .into_iter()
+        .next()
+        .context("the demo dataset has no test sequence")?;
+    let seed = generate::seed_motion(
+        &SeedSource::Sequence {
+            data: data.to_path_buf(),
+            name: first,
+        },
+        ck,
+    )?;
+    let pb = ProgressBar::new(frames as u64);
+    pb.set_style(
+        ProgressStyle::with_template(&format!(
+            "[demo] dance {name} {{bar:30}} {{pos}}/{{len}} frames {{per_sec}} [eta {{eta}}]"
+        ))
+        .expect("valid template"),
+    );
+    let written = generate::generate(
+        ck,
+        &[song],
+        &seed,
+        &GenerateOptions {
+            frames,
+            audio_pad: qean_data::autoregress::AudioPad::Stop,
+            feedback_project: false,
+            render: true,
+            backend: ck.config.train.backend.clone(),
+        },
+        &dir,
+        |done, total| {
+            pb.set_length(total as u64);
+            pb.set_position(done as u64);
+        },
+    )?;
+    pb.finish_and_clear();
+    atomic_write(&marker, marker_text(ck).as_bytes())?;
+    let g = &written[0];
+    say(format!(
+        "dance {name}: {} seed + {} generated frames → {}",
+        ck.config.model.motion_len,
+        g.generated,
+        dir.display()
+    ));
+    Ok(g.paths.all().iter().map(|p| p.to_path_buf()).collect())
+}
+
+fn evaluate(run_dir: &Path, data: &Path, ck: &Checkpoint) -> anyhow::Result<(RunReport, PathBuf)> {
+    let dir = run_dir
+        .join("eval")
+        .join(qean_train::run_dir::checkpoint_name(ck.state.step));
+    let json = dir.join("report.json");
+    let md = dir.join("report.md");
+    if json.is_file() && md.is_file() {
+        if let Ok(report) = read_report(&json) {
+            if report.baselines.is_some() && report.step == ck.state.step {
+                say(format!("evaluate: reusing {}", md.display()));
+                return Ok((report, md));
+            }
+        }
+    }
+    say(format!(
+        "evaluate: {} on the test + val split",
+        run_dir.display()
+    ));
+    let args = qean_eval::cli::Args::try_parse_from([
+        OsStr::new("qean-eval"),
+        OsStr::new("--run"),
+        run_dir.as_os_str(),
+        OsStr::new("--checkpoint"),
+        ck.dir.as_os_str(),
+        OsStr::new("--data"),
+        data.as_os_str(),
+        OsStr::new("--baselines"),
+    ])
+    .context("internal: eval arguments")?;
+    qean_eval::run_eval::evaluate_run(&args, run_dir)?;
+    Ok((read_report(&json)?, md))
+}
+
+fn read_report(path: &Path) -> anyhow::Result<RunReport> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{}: not a report", path.display()))
+}
+
+fn num(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".into(), |x| format!("{x:.4}"))
+}
+
+/// The final table: ground truth, each model, the chance baselines; then the checks.
+pub fn table(models: &[ModelResult]) -> String {
+    let mut t = String::from(
+        "| | FID_k ↓ | FID_g ↓ | Dist_k → | Dist_g → | BeatAlign ↑ | train time |\n\
+         |---|---|---|---|---|---|---|\n",
+    );
+    if let Some(first) = models.first().and_then(|m| m.report.reports.first()) {
+        t += &format!(
+            "| ground truth (synthetic test + val) | - | - | {} | {} | {} | - |\n",
+            num(Some(first.gt_div_k)),
+            num(Some(first.gt_div_g)),
+            num(first.gt_beat_align)
+        );
+    }
+    let row = |label: &str, r: &MetricsReport, time: &str| {
+        format!(
+            "| {label} | {} | {} | {} | {} | {} | {time} |\n",
+            num(Some(r.fid_k)),
+            num(Some(r.fid_g)),
+            num(Some(r.div_k)),
+            num(Some(r.div_g)),
+            num(r.beat_align)
+        )
+    };
+    for m in models {
+        if let Some(r) = m.report.reports.first() {
+            t += &row(&m.label, r, &format!("{:.0} s", m.train_seconds));
+        }
+    }
+    if let Some(b) = models.first().and_then(|m| m.report.baselines.as_ref()) {
+        t += &row("chance: frozen seed pose", &b.frozen, "-");
+    }
+    for m in models {
+        if let Some(r) = m
+            .report
+            .baselines
+            .as_ref()
+            .and_then(|b| b.random_pairing.as_ref())
+        {
+            t += &row(&format!("chance: {} with random music", m.label), r, "-");
+        }
+    }
+    t += "\n";
+    for m in models {
+        let (Some(r), Some(b)) = (m.report.reports.first(), m.report.baselines.as_ref()) else {
+            continue;
+        };
+        let fid = if r.fid_k < b.frozen.fid_k {
+            "below"
+        } else {
+            "NOT below"
+        };
+        t += &format!(
+            "{}: FID_k {:.4} is {fid} the frozen baseline's {:.4}",
+            m.label, r.fid_k, b.frozen.fid_k
+        );
+        match (
+            r.beat_align,
+            b.random_pairing.as_ref().and_then(|x| x.beat_align),
+        ) {
+            (Some(ours), Some(chance)) => {
+                let ba = if ours > chance { "above" } else { "NOT above" };
+                t += &format!("; BeatAlign {ours:.4} is {ba} random pairing's {chance:.4}\n");
+            }
+            _ => t += "; BeatAlign: no music beats\n",
+        }
+    }
+    t
+}
+
+/// Runs the demo.
+pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
+    let started = Instant::now();
+    let out = &opts.out;
+    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
+    write_assets(out)?;
+    let data = dataset(out, &opts.budget)?;
+    let presets = [
+        ("fact", "tiny FACT", "configs/tiny/fact.toml"),
+        (
+            "qean",
+            "tiny QEAN (full: SPE + QRA)",
+            "configs/tiny/full.toml",
+        ),
+    ];
+    let mut trained = Vec::new();
+    for (name, label, preset) in presets {
+        match train_model(opts, &data, name, preset)? {
+            Some(t) => trained.push((name, label, t)),
+            None => {
+                return Ok(DemoResult {
+                    dataset: data,
+                    models: Vec::new(),
+                    table: String::new(),
+                    summary: PathBuf::new(),
+                    finished: false,
+                })
+            }
+        }
+    }
+    let mut models = Vec::new();
+    for (name, label, (ck, seconds, loss)) in trained {
+        let run_dir = out.join("runs").join(name);
+        let dance = dance(out, &data, name, &ck, opts.budget.dance_frames)?;
+        let (report, report_md) = evaluate(&run_dir, &data, &ck)?;
+        models.push(ModelResult {
+            label: label.to_string(),
+            run_dir,
+            checkpoint: ck.dir.clone(),
+            train_seconds: seconds,
+            final_loss: loss,
+            dance,
+            report_md,
+            report,
+        });
+    }
+    let table = table(&models);
+    let mut summary = format!(
+        "# qean demo\n\nDataset: {} ({} sequences of ~{} s). Each model trained {} steps (batch {}, windows of {} \
+         motion / {} music frames) on CPU; scored on the test + val split (seed = the first {} ground-truth \
+         frames), Bailando's metrics.\n\n{table}\n## Artefacts\n\n",
+        data.display(),
+        opts.budget.sequences,
+        opts.budget.seconds,
+        opts.budget.steps,
+        opts.budget.batch_size,
+        opts.budget.motion_len,
+        opts.budget.audio_len,
+        opts.budget.motion_len
+    );
+    for m in &models {
+        summary += &format!(
+            "- {}: run {}, checkpoint {}, report {}\n",
+            m.label,
+            m.run_dir.display(),
+            m.checkpoint.display(),
+            m.report_md.display()
+        );
+        for p in &m.dance {
+            summary += &format!("  - {}\n", p.display());
+        }
+    }
+    summary += &format!(
+        "\nTotal time of this demo run: {:.0} s\n",
+        started.elapsed().as_secs_f64()
+    );
+    let path = out.join("summary.md");
+    atomic_write(&path, summary.as_bytes())?;
+    if models.is_empty() {
+        bail!("internal: no model trained");
+    }
+    Ok(DemoResult {
+        dataset: data,
+        models,
+        table,
+        summary: path,
+        finished: true,
+    })
+}

@@ -1,0 +1,3 @@
+//! The `qean` package's library: what the binary does beyond dispatching to the workspace crates.
+
+pub mod demo;

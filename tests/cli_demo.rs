@@ -1,0 +1,115 @@
+//! `qean demo --quick` end to end: the table, the artefacts, the checks against chance, and a second
+//! run that reuses every finished stage.
+
+mod common;
+
+use common::qean;
+
+fn png_size(path: &std::path::Path) -> (u32, u32, usize) {
+    let png = std::fs::read(path).unwrap();
+    assert_eq!(&png[1..4], b"PNG", "{}", path.display());
+    let w = u32::from_be_bytes(png[16..20].try_into().unwrap());
+    let h = u32::from_be_bytes(png[20..24].try_into().unwrap());
+    (w, h, png.len())
+}
+
+#[test]
+fn quick_demo_trains_samples_evaluates_and_resumes() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("demo");
+    let run = || {
+        let o = qean()
+            .args(["demo", "--quick", "--plain", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&o.stdout).to_string();
+        let stderr = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(o.status.success(), "demo failed:\n{stdout}\n{stderr}");
+        (stdout, stderr)
+    };
+    let (table, _) = run();
+    for row in [
+        "| ground truth",
+        "| tiny FACT |",
+        "| tiny QEAN (full: SPE + QRA) |",
+        "| chance: frozen seed pose |",
+        "| chance: tiny FACT with random music |",
+    ] {
+        assert!(table.contains(row), "missing {row:?} in:\n{table}");
+    }
+    // Each model is compared with both chance baselines (the full demo's numbers are in the notes:
+    // the quick one trains too briefly to promise a winner).
+    for label in ["tiny FACT", "tiny QEAN (full: SPE + QRA)"] {
+        let line = table
+            .lines()
+            .find(|l| l.starts_with(&format!("{label}: FID_k ")))
+            .unwrap_or_else(|| panic!("no check line for {label}:\n{table}"));
+        assert!(
+            line.contains("the frozen baseline's") && line.contains("random pairing's"),
+            "{line}"
+        );
+    }
+    for model in ["fact", "qean"] {
+        let dir = out.join("dances").join(model);
+        for f in [
+            "Vibe_Ace.pkl",
+            "Vibe_Ace.joints.npy",
+            "Vibe_Ace.bvh",
+            "Vibe_Ace.png",
+            "Vibe_Ace.gif",
+        ] {
+            assert!(dir.join(f).is_file(), "{model}/{f} missing:\n{table}");
+        }
+        let joints = qean_data::npy::read(&dir.join("Vibe_Ace.joints.npy")).unwrap();
+        // The quick demo's seed is 30 frames.
+        assert_eq!(joints.shape, vec![1230, 24, 3]);
+        let (w, h, bytes) = png_size(&dir.join("Vibe_Ace.png"));
+        assert!(
+            w >= 400 && h >= 200 && bytes > 2_000,
+            "{w}×{h}, {bytes} bytes"
+        );
+        let report = out.join("runs").join(model).join("eval");
+        assert!(report.is_dir(), "{}", report.display());
+    }
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(summary.contains("| tiny FACT |"), "{summary}");
+    for licence in [
+        "assets/music/Kevin_MacLeod_-_Vibe_Ace.LICENSE.txt",
+        "assets/music/Brahms_Hungarian_Dance_5.LICENSE.txt",
+        "assets/music/sorohanro_-_solo-trumpet-06.LICENSE.txt",
+    ] {
+        assert!(out.join(licence).is_file(), "{licence}");
+    }
+    let synth: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("data/synth.json")).unwrap()).unwrap();
+    assert_eq!(
+        synth["music"]["mBR1"]["source"],
+        "sorohanro_-_solo-trumpet-06.ogg"
+    );
+
+    // Second run: everything is reused and the table is the same.
+    let before = std::fs::read(out.join("runs/qean/metrics.csv")).unwrap();
+    let (again, log) = run();
+    for stage in [
+        "dataset: reusing",
+        "dance fact: reusing",
+        "evaluate: reusing",
+    ] {
+        assert!(log.contains(stage), "missing {stage:?} in:\n{log}");
+    }
+    assert_eq!(
+        std::fs::read(out.join("runs/qean/metrics.csv")).unwrap(),
+        before
+    );
+    let rows = |t: &str| -> Vec<String> {
+        t.lines()
+            .filter(|l| l.starts_with('|'))
+            .map(|l| {
+                let cells: Vec<&str> = l.split('|').collect();
+                cells[..cells.len().saturating_sub(2)].join("|")
+            })
+            .collect()
+    };
+    assert_eq!(rows(&again), rows(&table));
+}
