@@ -498,5 +498,22 @@ print(len(m.get_joints_names()), m.nframes)
     let mut c = sample(&song, &out);
     c.args(["--checkpoint", "step-7"]);
     assert_clean_failure(&mut c, "step-7");
+    // A checkpoint whose weights do not fit its config (hidden 16 in the weights, 32 in the config).
+    let ck = checkpoints(&run).last().unwrap().clone();
+    let config = std::fs::read_to_string(ck.join("config.toml")).unwrap();
+    assert!(config.contains("\nhidden = 16\n"), "{config}");
+    let bad = d.path().join("bad-checkpoint");
+    std::fs::create_dir(&bad).unwrap();
+    for f in ["model.bpk", "optimizer.bpk", "state.json"] {
+        std::fs::copy(ck.join(f), bad.join(f)).unwrap();
+    }
+    std::fs::write(
+        bad.join("config.toml"),
+        config.replace("\nhidden = 16\n", "\nhidden = 32\n"),
+    )
+    .unwrap();
+    let mut c = sample(&song, &out);
+    c.arg("--checkpoint").arg(&bad);
+    assert_clean_failure(&mut c, "bad-checkpoint");
     assert_eq!(before, listing(&out), "a failed sample wrote files");
 }

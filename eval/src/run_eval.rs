@@ -375,3 +375,50 @@ pub fn evaluate_run(args: &Args, run: &Path) -> anyhow::Result<(EvaluationFile, 
         format!("{table}\nreport: {}\n", out_dir.join("report.md").display()),
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn seq(name: &str, frames: usize) -> Sequence {
+        let joints = (0..frames)
+            .map(|t| [[t as f64, 0.0, 0.0]; N_JOINTS])
+            .collect();
+        Sequence {
+            name: name.to_string(),
+            joints,
+        }
+    }
+
+    #[test]
+    fn frozen_dances_hold_the_last_seed_frame() {
+        let g = vec![seq("gBR_sBM_cAll_d04_mBR0_ch02", 10)];
+        let f = frozen_dances(&g, 4);
+        assert_eq!(f[0].joints.len(), 10);
+        assert_eq!(f[0].name, g[0].name);
+        for t in 0..4 {
+            assert_eq!(f[0].joints[t], g[0].joints[t]);
+        }
+        for t in 4..10 {
+            assert_eq!(f[0].joints[t], g[0].joints[3]);
+        }
+    }
+
+    #[test]
+    fn repairing_gives_every_dance_another_music_id() {
+        let g = vec![
+            seq("gBR_sBM_cAll_d04_mBR0_ch02", 3),
+            seq("gPO_sBM_cAll_d10_mPO1_ch02", 3),
+            seq("gLO_sBM_cAll_d13_mLO2_ch02", 3),
+            seq("gBR_sBM_cAll_d05_mBR0_ch01", 3),
+        ];
+        let r = repaired_dances(&g).unwrap();
+        let ids: Vec<String> = r.iter().map(|s| music_id_of(&s.name).unwrap()).collect();
+        assert_eq!(ids, ["mLO2", "mBR0", "mPO1", "mLO2"]);
+        for (a, b) in g.iter().zip(&r) {
+            assert_ne!(music_id_of(&a.name), music_id_of(&b.name));
+            assert_eq!(a.joints, b.joints);
+        }
+        assert!(repaired_dances(&g[..1]).is_none());
+    }
+}
