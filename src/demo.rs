@@ -76,6 +76,8 @@ pub struct Budget {
     pub batch_size: usize,
     /// Frames generated for the held-out song.
     pub dance_frames: usize,
+    /// Most frames generated per test/val sequence in the evaluation (`qean eval --max-frames`).
+    pub eval_frames: usize,
 }
 
 impl Budget {
@@ -90,6 +92,7 @@ impl Budget {
                 steps: 100,
                 batch_size: 8,
                 dance_frames: 1200,
+                eval_frames: 300,
             }
         } else {
             Budget {
@@ -100,6 +103,7 @@ impl Budget {
                 steps: 500,
                 batch_size: 8,
                 dance_frames: 1200,
+                eval_frames: 600,
             }
         }
     }
@@ -344,7 +348,12 @@ fn dance(
     Ok(g.paths.all().iter().map(|p| p.to_path_buf()).collect())
 }
 
-fn evaluate(run_dir: &Path, data: &Path, ck: &Checkpoint) -> anyhow::Result<(RunReport, PathBuf)> {
+fn evaluate(
+    run_dir: &Path,
+    data: &Path,
+    ck: &Checkpoint,
+    max_frames: usize,
+) -> anyhow::Result<(RunReport, PathBuf)> {
     let dir = run_dir
         .join("eval")
         .join(qean_train::run_dir::checkpoint_name(ck.state.step));
@@ -352,7 +361,10 @@ fn evaluate(run_dir: &Path, data: &Path, ck: &Checkpoint) -> anyhow::Result<(Run
     let md = dir.join("report.md");
     if json.is_file() && md.is_file() {
         if let Ok(report) = read_report(&json) {
-            if report.baselines.is_some() && report.step == ck.state.step {
+            if report.baselines.is_some()
+                && report.step == ck.state.step
+                && report.frames == max_frames
+            {
                 say(format!("evaluate: reusing {}", md.display()));
                 return Ok((report, md));
             }
@@ -362,8 +374,11 @@ fn evaluate(run_dir: &Path, data: &Path, ck: &Checkpoint) -> anyhow::Result<(Run
         "evaluate: {} on the test + val split",
         run_dir.display()
     ));
+    let max_frames = max_frames.to_string();
     let args = qean_eval::cli::Args::try_parse_from([
         OsStr::new("qean-eval"),
+        OsStr::new("--max-frames"),
+        OsStr::new(&max_frames),
         OsStr::new("--run"),
         run_dir.as_os_str(),
         OsStr::new("--checkpoint"),
@@ -491,7 +506,7 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
     for (name, label, (ck, seconds, loss)) in trained {
         let run_dir = out.join("runs").join(name);
         let dance = dance(out, &data, name, &ck, opts.budget.dance_frames)?;
-        let (report, report_md) = evaluate(&run_dir, &data, &ck)?;
+        let (report, report_md) = evaluate(&run_dir, &data, &ck, opts.budget.eval_frames)?;
         models.push(ModelResult {
             label: label.to_string(),
             run_dir,
@@ -507,7 +522,7 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
     let mut summary = format!(
         "# qean demo\n\nDataset: {} ({} sequences of ~{} s). Each model trained {} steps (batch {}, windows of {} \
          motion / {} music frames) on CPU; scored on the test + val split (seed = the first {} ground-truth \
-         frames), Bailando's metrics.\n\n{table}\n## Artefacts\n\n",
+         frames, then up to {} generated frames), Bailando's metrics.\n\n{table}\n## Artefacts\n\n",
         data.display(),
         opts.budget.sequences,
         opts.budget.seconds,
@@ -515,7 +530,8 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
         opts.budget.batch_size,
         opts.budget.motion_len,
         opts.budget.audio_len,
-        opts.budget.motion_len
+        opts.budget.motion_len,
+        opts.budget.eval_frames
     );
     for m in &models {
         summary += &format!(
