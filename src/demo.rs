@@ -22,6 +22,7 @@ use qean_eval::report::MetricsReport;
 use qean_eval::run_eval::RunReport;
 use qean_train::checkpoint::Checkpoint;
 use qean_train::generate::{self, GenerateOptions, SeedSource};
+use qean_train::run_config::string_override;
 use qean_train::{ProgressMode, RunConfig, Start, TrainOptions};
 
 /// A file shipped inside the binary.
@@ -229,10 +230,7 @@ fn train_model(
     let steps = b.steps;
     let every = (steps / 3).max(1);
     let overrides = vec![
-        format!(
-            "data.dir={}",
-            toml::Value::String(data.to_string_lossy().into_owned())
-        ),
+        string_override("data.dir", &data.to_string_lossy()),
         format!("model.motion_len={}", b.motion_len),
         format!("model.audio_len={}", b.audio_len),
         format!("train.steps={steps}"),

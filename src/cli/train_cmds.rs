@@ -7,6 +7,7 @@ use std::sync::Arc;
 use anyhow::{anyhow, bail};
 use clap::Args;
 use qean_train::checkpoint::{self, Checkpoint};
+use qean_train::run_config::string_override;
 use qean_train::{sweep, ProgressMode, RunConfig, Start, TrainOptions};
 
 /// Train FACT or QEAN from a TOML run config (SPEC §5): random 240-frame windows of the train split,
@@ -64,13 +65,10 @@ pub(crate) fn stop_flag() -> Arc<AtomicBool> {
 fn overrides(set: &[String], data: &Option<PathBuf>, backend: &Option<String>) -> Vec<String> {
     let mut o = set.to_vec();
     if let Some(d) = data {
-        o.push(format!(
-            "data.dir={}",
-            toml::Value::String(d.to_string_lossy().into_owned())
-        ));
+        o.push(string_override("data.dir", &d.to_string_lossy()));
     }
     if let Some(b) = backend {
-        o.push(format!("train.backend={}", toml::Value::String(b.clone())));
+        o.push(string_override("train.backend", b));
     }
     o
 }

@@ -147,14 +147,7 @@ pub fn weights_table(config: &ModelConfig) -> String {
     }
     let mut s = String::from("| name | shape | layers | role |\n|---|---|---|---|\n");
     for (pattern, shape, layers) in rows.values() {
-        let shape = format!(
-            "[{}]",
-            shape
-                .iter()
-                .map(|d| d.to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
+        let shape = shape_text(shape);
         let layers = layers
             .map(|(lo, hi)| format!("{{i}} = {lo}..={hi}"))
             .unwrap_or_default();
@@ -166,17 +159,15 @@ pub fn weights_table(config: &ModelConfig) -> String {
     s
 }
 
+/// A shape as the table writes it: `[225, 800]`.
+fn shape_text(shape: &[usize]) -> String {
+    format!("{shape:?}")
+}
+
 /// Does `name` with `shape` appear in a table made by [`weights_table`]?
 pub fn table_lists(table: &str, name: &str, shape: &[usize]) -> bool {
     let (pattern, layer) = layer_pattern(name);
-    let shape = format!(
-        "[{}]",
-        shape
-            .iter()
-            .map(|d| d.to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
+    let shape = shape_text(shape);
     table.lines().any(|line| {
         let cells: Vec<&str> = line.split('|').map(str::trim).collect();
         if cells.len() < 5 || cells[1] != format!("`{pattern}`") || cells[2] != shape {

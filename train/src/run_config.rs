@@ -130,6 +130,11 @@ fn check_file(path: &Path, text: &str) -> Result<(), ConfigError> {
         .map_err(|e| ConfigError::from_toml(path, text, &e))
 }
 
+/// A `--set` override giving `key` a string value, quoted as TOML (so paths with spaces or quotes survive).
+pub fn string_override(key: &str, value: &str) -> String {
+    format!("{key}={}", toml::Value::String(value.to_string()))
+}
+
 /// Parses `key.path=value`: the value as TOML (number, bool, string, array), else as a bare string.
 pub fn parse_override(spec: &str) -> Result<(Vec<String>, toml::Value), String> {
     let (key, value) = spec
