@@ -3,105 +3,12 @@
 //! The runs use a small synthetic dataset and the tiny presets shrunk further with `--set`, so
 //! that each takes seconds in a debug build.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 mod common;
 use common::*;
-
-fn configs() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("configs")
-}
-
-/// A small synthetic AIST++-format dataset (8 train, 2 val, 2 test sequences of ~8 s).
-fn dataset(dir: &Path) -> PathBuf {
-    let out = dir.join("synth");
-    let st = qean()
-        .args(["synth", "--sequences", "12", "--seconds", "8", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
-    );
-    out
-}
-
-/// Overrides that make a tiny preset fast in debug builds.
-const SMALL: [&str; 7] = [
-    "model.hidden=16",
-    "model.heads=2",
-    "model.ffn=32",
-    "model.motion_layers=1",
-    "model.audio_layers=1",
-    "model.cross_layers=1",
-    "train.batch_size=2",
-];
-
-fn train_cmd(config: &str, data: &Path, run: &Path, extra: &[&str]) -> Command {
-    let mut c = qean();
-    c.arg("train")
-        .arg("--config")
-        .arg(configs().join(config))
-        .arg("--data")
-        .arg(data)
-        .arg("--run-dir")
-        .arg(run)
-        .arg("--plain");
-    for s in SMALL.iter().chain(extra) {
-        c.arg("--set").arg(s);
-    }
-    c
-}
-
-fn run_ok(cmd: &mut Command) -> String {
-    let out = cmd.output().unwrap();
-    assert!(
-        out.status.success(),
-        "failed: {}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-/// metrics.csv without the wall-clock column.
-fn losses(run: &Path) -> Vec<String> {
-    std::fs::read_to_string(run.join("metrics.csv"))
-        .unwrap()
-        .lines()
-        .map(|l| l.rsplit_once(',').unwrap().0.to_string())
-        .collect()
-}
-
-fn params_hash(checkpoint: &Path) -> String {
-    let text = run_ok(qean().arg("inspect").arg(checkpoint));
-    text.lines()
-        .find_map(|l| l.strip_prefix("params_hash: "))
-        .unwrap_or_else(|| panic!("no params_hash line: {text}"))
-        .to_string()
-}
-
-fn checkpoints(run: &Path) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(run.join("checkpoints"))
-        .map(|d| d.map(|e| e.unwrap().path()).collect())
-        .unwrap_or_default();
-    v.retain(|p| {
-        p.file_name()
-            .unwrap()
-            .to_string_lossy()
-            .starts_with("step-")
-    });
-    v.sort_by_key(|p| {
-        p.file_name().unwrap().to_string_lossy()[5..]
-            .parse::<u64>()
-            .unwrap_or(0)
-    });
-    v
-}
 
 #[test]
 fn kill_9_then_resume_equals_an_uninterrupted_run() {

@@ -78,10 +78,39 @@ impl DanceModel {
         }
         self.try_load_file(&path).map_err(|e| {
             let e = e.to_string();
-            let first = e.lines().next().unwrap_or("");
-            format!("{}: cannot load weights: {first}", path.display())
+            let first = shorten_lists(e.lines().next().unwrap_or(""), 3);
+            format!(
+                "{}: cannot load weights (written by another model or config?): {first}",
+                path.display()
+            )
         })
     }
+}
+
+/// Shortens every `[a, b, c, ...]` list in `text` to its first `keep` items and a count, so that an
+/// error naming hundreds of tensors stays one readable line.
+fn shorten_lists(text: &str, keep: usize) -> String {
+    let mut out = String::new();
+    let mut rest = text;
+    while let Some(open) = rest.find('[') {
+        let Some(len) = rest[open..].find(']') else {
+            break;
+        };
+        let items: Vec<&str> = rest[open + 1..open + len].split(", ").collect();
+        out.push_str(&rest[..open]);
+        if items.len() > keep {
+            out.push_str(&format!(
+                "[{}, ... {} in all]",
+                items[..keep].join(", "),
+                items.len()
+            ));
+        } else {
+            out.push_str(&rest[open..=open + len]);
+        }
+        rest = &rest[open + len + 1..];
+    }
+    out.push_str(rest);
+    out
 }
 
 impl DanceGenerator for DanceModel {
@@ -116,6 +145,15 @@ mod tests {
     use crate::config::{AttentionKind, PositionKind};
     use crate::testing::max_abs_diff;
     use burn::tensor::Distribution;
+
+    #[test]
+    fn long_lists_in_errors_are_shortened() {
+        assert_eq!(
+            shorten_lists("Missing tensors: [\"a\", \"b\", \"c\", \"d\"] and [x]", 2),
+            "Missing tensors: [\"a\", \"b\", ... 4 in all] and [x]"
+        );
+        assert_eq!(shorten_lists("no list [", 2), "no list [");
+    }
 
     fn tiny(arch: Arch) -> ModelConfig {
         ModelConfig {

@@ -29,6 +29,27 @@ pub struct FeaturesArgs {
     /// Resampling filter (resampy 0.2.2's): kaiser_best (librosa.load's default) or kaiser_fast.
     #[arg(long, default_value = "kaiser_best", value_parser = ["kaiser_best", "kaiser_fast"])]
     pub resampler: String,
+    /// Write the features of a silent track (flat onset envelope: no onsets, no beats) instead of refusing
+    /// it. A silent file in a dance dataset is almost always a decoding or export mistake.
+    #[arg(long)]
+    pub allow_silent: bool,
+}
+
+/// The features of one file, refusing silence unless `--allow-silent`.
+fn file_features(
+    path: &std::path::Path,
+    opts: &FeatureOptions,
+    a: &FeaturesArgs,
+) -> anyhow::Result<audio::MusicFeatures> {
+    let f = audio::features_for_file(path, opts)?;
+    if !a.allow_silent && f.is_silent() {
+        bail!(
+            "{}: the audio is silent (flat onset envelope: no onsets, no beats); pass --allow-silent to \
+             write its features anyway",
+            path.display()
+        );
+    }
+    Ok(f)
 }
 
 /// Options for the track `name` (`--start-bpm` is checked once in [`features`]).
@@ -70,7 +91,8 @@ pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {
             &ids,
             describe,
             |path, id| {
-                let f = audio::features_for_file(path, &options(id, &a))?;
+                let f = file_features(path, &options(id, &a), &a)
+                    .map_err(|e| qean_data::Error::msg(format!("{e:#}")))?;
                 Ok((f.data, f.frames))
             },
             |done, _, id| {
@@ -97,27 +119,40 @@ pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {
     if !out.is_dir() {
         bail!("{}: output directory does not exist", out.display());
     }
+    // Every file is computed before any is written, so a bad file leaves no partial output.
     let pb = bar(a.audio.len());
+    let mut done: Vec<(&PathBuf, PathBuf, audio::MusicFeatures)> =
+        Vec::with_capacity(a.audio.len());
     for path in &a.audio {
         let stem = path
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "audio".into());
         pb.set_message(stem.clone());
-        let f = audio::features_for_file(path, &options(&stem, &a))?;
+        let f = file_features(path, &options(&stem, &a), &a)?;
         let dst = out.join(format!("{stem}.npy"));
-        qean_data::npy::write_f32(&dst, &[f.frames, audio::FEATURE_DIM], &f.data)?;
-        pb.println(format!(
+        if done.iter().any(|(_, d, _)| *d == dst) {
+            bail!(
+                "{}: two inputs share the stem {stem:?}, so both would write {}",
+                path.display(),
+                dst.display()
+            );
+        }
+        done.push((path, dst, f));
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    for (path, dst, f) in &done {
+        qean_data::npy::write_f32(dst, &[f.frames, audio::FEATURE_DIM], &f.data)?;
+        println!(
             "{}: {} frames, tempo {:.2} BPM, {} beats -> {}",
             path.display(),
             f.frames,
             f.tempo_bpm,
             f.beats.len(),
             dst.display()
-        ));
-        pb.inc(1);
+        );
     }
-    pb.finish_and_clear();
     Ok(())
 }
 

@@ -81,9 +81,25 @@ fn progress(plain: bool) -> ProgressMode {
     }
 }
 
+/// A run directory that has its resolved config.toml but no checkpoint yet.
+fn fresh_run_without_checkpoint(path: &Path) -> bool {
+    path.join("config.toml").is_file()
+        && qean_train::run_dir::list_checkpoints(path).is_ok_and(|c| c.is_empty())
+}
+
 pub fn train(a: TrainArgs) -> anyhow::Result<i32> {
     let overrides = overrides(&a.set, &a.data, &a.backend);
     let (config, run_dir, start) = match &a.resume {
+        Some(path) if fresh_run_without_checkpoint(path) => {
+            // Stopped (or killed) before its first checkpoint: start again from its own config.
+            let config_path = a.config.clone().unwrap_or_else(|| path.join("config.toml"));
+            let config = RunConfig::load(&config_path, &overrides).map_err(|e| anyhow!("{e}"))?;
+            tracing::warn!(
+                "{}: no checkpoint yet: training again from step 0",
+                path.display()
+            );
+            (config, path.clone(), Start::Auto)
+        }
         Some(path) => {
             let ck = checkpoint::resolve(path)?;
             let run_dir = ck.run_dir().ok_or_else(|| {

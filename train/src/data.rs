@@ -19,6 +19,12 @@ pub fn ensure_features(ds: &Dataset, names: &[String]) -> Result<usize> {
         |path, id| {
             tracing::info!("computing music features of {id} ({})", path.display());
             let f = audio::features_for_file(path, &FeatureOptions::for_name(id))?;
+            if f.is_silent() {
+                tracing::warn!(
+                    "{}: the audio is silent (no onsets, no beats)",
+                    path.display()
+                );
+            }
             Ok((f.data, f.frames))
         },
         |_, _, _| {},

@@ -43,6 +43,12 @@ pub fn load_song(path: &Path, name: Option<&str>, audio_len: usize) -> Result<So
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "song".into());
     let features = audio::features_for_file(path, &FeatureOptions::for_name(&stem))?;
+    if features.is_silent() {
+        tracing::warn!(
+            "{}: the audio is silent (no onsets, no beats)",
+            path.display()
+        );
+    }
     if features.frames < audio_len {
         return Err(Error::at(
             path,

@@ -390,16 +390,25 @@ impl Session {
 /// Trains (or continues) the run in `opts.run_dir` with `config`.
 pub fn train(config: RunConfig, opts: &TrainOptions) -> Result<TrainOutcome> {
     let run_dir = &opts.run_dir;
+    let created = !run_dir.exists();
     std::fs::create_dir_all(run_dir).map_err(|e| Error::io(run_dir, e))?;
-    let _lock = RunLock::acquire(run_dir)?;
-    let log_path = run_dir.join("train.log");
-    let file = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(&log_path)
-        .map_err(|e| Error::io(&log_path, e))?;
-    let subscriber = crate::logging::subscriber(file);
-    tracing::subscriber::with_default(subscriber, || train_locked(config, opts))
+    let result = (|| {
+        let _lock = RunLock::acquire(run_dir)?;
+        let log_path = run_dir.join("train.log");
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&log_path)
+            .map_err(|e| Error::io(&log_path, e))?;
+        let subscriber = crate::logging::subscriber(file);
+        tracing::subscriber::with_default(subscriber, || train_locked(config, opts))
+    })();
+    // A fresh run that failed before its first checkpoint leaves nothing behind (the error was printed).
+    if result.is_err() && created && run_dir::list_checkpoints(run_dir).is_ok_and(|c| c.is_empty())
+    {
+        let _ = std::fs::remove_dir_all(run_dir);
+    }
+    result
 }
 
 fn train_locked(mut config: RunConfig, opts: &TrainOptions) -> Result<TrainOutcome> {

@@ -92,6 +92,11 @@ impl MusicFeatures {
         &self.data[t * FEATURE_DIM..(t + 1) * FEATURE_DIM]
     }
 
+    /// Whether the track is silent: a flat onset envelope, so no onsets and no beats.
+    pub fn is_silent(&self) -> bool {
+        (0..self.frames).all(|t| self.data[t * FEATURE_DIM + COL_ENV] == 0.0)
+    }
+
     /// Column `c` as f64.
     pub fn column(&self, c: usize) -> Vec<f64> {
         (0..self.frames)
@@ -135,7 +140,7 @@ pub fn music_features(samples: &[f64], opts: &FeatureOptions) -> Result<MusicFea
     let onsets = onset_detect(&env, sr, HOP);
     let bt = beat_track(&env, sr, HOP, opts.start_bpm, opts.tightness);
     if env.iter().all(|&v| v == 0.0) {
-        tracing::warn!("the audio is silent (flat onset envelope): no onsets, no beats");
+        tracing::debug!("the audio is silent (flat onset envelope): no onsets, no beats");
     }
     assemble(&env, &mfcc, &cens, onsets, bt.beats, bt.tempo_bpm, tuning)
 }

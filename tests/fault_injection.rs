@@ -1,0 +1,285 @@
+//! Fault injection: training, sweeps and the feature cache are killed with SIGKILL at random moments
+//! (checkpoint writes included) and restarted; the end result must equal an uninterrupted run's, and
+//! nothing left behind at any kill may be half-written or unloadable.
+//!
+//! The moments come from a small PRNG seeded from the clock; the seed is printed, and
+//! `QEAN_FAULT_SEED=N` replays a failure.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+mod common;
+use common::*;
+
+/// xorshift64*: enough randomness for kill moments, replayable from its seed.
+struct Rng(u64);
+
+impl Rng {
+    fn new(what: &str) -> Rng {
+        let seed = std::env::var("QEAN_FAULT_SEED")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| {
+                std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .unwrap()
+                    .as_nanos() as u64
+            });
+        println!("{what}: QEAN_FAULT_SEED={seed}");
+        Rng(seed | 1)
+    }
+
+    fn below(&mut self, n: u64) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) % n.max(1)
+    }
+}
+
+/// Runs `cmd`, killing it with SIGKILL after `delay`. Returns true if it was killed, false if it ended
+/// first (then it must have succeeded).
+fn kill_after(cmd: &mut Command, delay: Duration) -> bool {
+    let mut child = cmd
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut err = String::new();
+            std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+            assert!(status.success(), "ended with {status}: {err}");
+            return false;
+        }
+        if start.elapsed() >= delay {
+            let _ = child.kill();
+            child.wait().unwrap();
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+fn timed(cmd: &mut Command) -> Duration {
+    let start = Instant::now();
+    run_ok(cmd);
+    start.elapsed()
+}
+
+/// Every checkpoint directory left in `run` loads (its weights and state parse).
+fn all_checkpoints_load(run: &Path) {
+    for ck in checkpoints(run) {
+        params_hash(&ck);
+    }
+}
+
+#[test]
+fn twenty_sigkills_then_resume_equal_an_uninterrupted_run() {
+    let d = tempfile::tempdir().unwrap();
+    let data = dataset(d.path());
+    // QEAN full (dropout, SPE, QRA), a checkpoint every step (so kills land inside checkpoint writes
+    // and prunes), validation and logging every few steps.
+    let extra = [
+        "train.steps=60",
+        "train.checkpoint_every=1",
+        "train.log_every=1",
+        "train.val_every=5",
+        "train.keep_last=3",
+    ];
+    let straight = d.path().join("straight");
+    let full = timed(&mut train_cmd("tiny/full.toml", &data, &straight, &extra));
+    println!("uninterrupted run: {full:?}");
+
+    let run = d.path().join("killed");
+    let mut rng = Rng::new("train");
+    let mut kills = 0;
+    let mut moments = Vec::new();
+    while kills < 20 {
+        let mut cmd = if run.join("config.toml").is_file() {
+            let mut c = qean();
+            c.arg("train").arg("--resume").arg(&run).arg("--plain");
+            c
+        } else {
+            train_cmd("tiny/full.toml", &data, &run, &extra)
+        };
+        // Anywhere from process start to a twelfth of a whole run (so 20 kills fit in one run).
+        let delay = Duration::from_millis(rng.below(full.as_millis() as u64 / 12));
+        assert!(
+            kill_after(&mut cmd, delay),
+            "the run finished before 20 kills (after {kills}): raise train.steps"
+        );
+        kills += 1;
+        let step = checkpoints(&run)
+            .last()
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned());
+        moments.push(format!(
+            "{} ms → {}",
+            delay.as_millis(),
+            step.as_deref().unwrap_or("none")
+        ));
+        all_checkpoints_load(&run);
+    }
+    println!("kills (delay → newest checkpoint): {}", moments.join(", "));
+    let mut resume = qean();
+    resume.arg("train").arg("--resume").arg(&run).arg("--plain");
+    run_ok(&mut resume);
+
+    assert_eq!(losses(&straight), losses(&run), "metrics.csv differs");
+    let last = |r: &Path| checkpoints(r).last().unwrap().clone();
+    assert!(last(&run).ends_with("step-60"));
+    assert_eq!(params_hash(&last(&straight)), params_hash(&last(&run)));
+    // No temporaries left once a run has finished.
+    let leftovers: Vec<String> = listing(&run)
+        .into_iter()
+        .filter(|p| p.contains(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+fn sweep_cmd(data: &Path, out: &Path) -> Command {
+    let mut cmd = qean();
+    cmd.arg("sweep")
+        .arg("--config")
+        .arg(configs().join("sweeps/tiny-ablation.toml"))
+        .arg("--data")
+        .arg(data)
+        .arg("--out")
+        .arg(out)
+        .arg("--plain");
+    for s in SMALL.iter().chain(&[
+        "train.steps=8",
+        "train.checkpoint_every=1",
+        "train.keep_last=2",
+    ]) {
+        cmd.arg("--set").arg(s);
+    }
+    cmd
+}
+
+/// The run directories of a sweep.
+fn run_dirs(out: &Path) -> Vec<PathBuf> {
+    let mut runs: Vec<PathBuf> = std::fs::read_dir(out)
+        .map(|d| {
+            d.map(|e| e.unwrap().path())
+                .filter(|p| p.is_dir())
+                .collect()
+        })
+        .unwrap_or_default();
+    runs.sort();
+    runs
+}
+
+/// The final checkpoint hash of every run of a sweep, by run name.
+fn sweep_hashes(out: &Path) -> Vec<(String, String)> {
+    run_dirs(out)
+        .iter()
+        .map(|r| {
+            let name = r.file_name().unwrap().to_string_lossy().into_owned();
+            (name, params_hash(checkpoints(r).last().unwrap()))
+        })
+        .collect()
+}
+
+#[test]
+fn a_sweep_killed_between_and_inside_runs_finishes_like_an_uninterrupted_one() {
+    let d = tempfile::tempdir().unwrap();
+    let data = dataset(d.path());
+    let straight = d.path().join("straight");
+    let full = timed(&mut sweep_cmd(&data, &straight));
+    assert_eq!(run_dirs(&straight).len(), 4, "{:?}", listing(&straight));
+
+    let out = d.path().join("killed");
+    let mut rng = Rng::new("sweep");
+    let mut kills = 0;
+    // Spread over the whole sweep: early kills land inside the first runs, later ones between runs.
+    for k in 0..8u64 {
+        let lo = full.as_millis() as u64 * k / 10;
+        let delay = Duration::from_millis(lo / 2 + rng.below(full.as_millis() as u64 / 5));
+        if kill_after(&mut sweep_cmd(&data, &out), delay) {
+            kills += 1;
+        }
+        for r in run_dirs(&out) {
+            all_checkpoints_load(&r);
+        }
+    }
+    println!("sweep: {kills} of 8 attempts killed (uninterrupted: {full:?})");
+    assert!(kills >= 4, "only {kills} kills landed");
+    run_ok(&mut sweep_cmd(&data, &out));
+    assert_eq!(sweep_hashes(&straight), sweep_hashes(&out));
+    for run in run_dirs(&out) {
+        let name = run.file_name().unwrap().to_owned();
+        assert_eq!(losses(&straight.join(&name)), losses(&run), "{name:?}");
+    }
+}
+
+#[test]
+fn the_feature_cache_killed_mid_way_ends_with_the_same_files() {
+    let d = tempfile::tempdir().unwrap();
+    let data = dataset(d.path());
+    let copy = d.path().join("copy");
+    std::fs::create_dir(&copy).unwrap();
+    for sub in ["motions", "wav", "splits"] {
+        let from = data.join(sub);
+        if from.is_dir() {
+            std::fs::create_dir(copy.join(sub)).unwrap();
+            for e in std::fs::read_dir(&from).unwrap() {
+                let p = e.unwrap().path();
+                std::fs::copy(&p, copy.join(sub).join(p.file_name().unwrap())).unwrap();
+            }
+        }
+    }
+    let features = |ds: &Path| {
+        let mut c = qean();
+        c.arg("features").arg("--dataset").arg(ds);
+        c
+    };
+    let full = timed(&mut features(&data));
+    let cached = |ds: &Path| -> Vec<(String, Vec<u8>)> {
+        let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(ds.join("features"))
+            .map(|d| {
+                d.map(|e| {
+                    let p = e.unwrap().path();
+                    (
+                        p.file_name().unwrap().to_string_lossy().into_owned(),
+                        std::fs::read(&p).unwrap(),
+                    )
+                })
+                .collect()
+            })
+            .unwrap_or_default();
+        v.sort();
+        v
+    };
+    let mut rng = Rng::new("features");
+    let mut kills = 0;
+    for _ in 0..6 {
+        let delay = Duration::from_millis(rng.below(full.as_millis() as u64 / 2));
+        if kill_after(&mut features(&copy), delay) {
+            kills += 1;
+        }
+        // Whatever is in the cache is whole: every .npy parses with the right width.
+        for (name, bytes) in cached(&copy) {
+            if name.ends_with(".npy") {
+                let a = qean_data::npy::parse(&bytes)
+                    .unwrap_or_else(|e| panic!("{name}: half-written: {e}"));
+                assert_eq!(a.shape[1], 35, "{name}");
+            }
+        }
+    }
+    println!("features: {kills} of 6 attempts killed (uninterrupted: {full:?})");
+    assert!(kills >= 1);
+    run_ok(&mut features(&copy));
+    let (a, b) = (cached(&data), cached(&copy));
+    assert_eq!(
+        a.iter().map(|x| &x.0).collect::<Vec<_>>(),
+        b.iter().map(|x| &x.0).collect::<Vec<_>>()
+    );
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        if name.ends_with(".npy") {
+            assert_eq!(x, y, "{name} differs");
+        }
+    }
+}
