@@ -104,7 +104,7 @@ impl Budget {
                 steps: 500,
                 batch_size: 8,
                 dance_frames: 1200,
-                eval_frames: 600,
+                eval_frames: 300,
             }
         }
     }
@@ -439,7 +439,11 @@ pub fn table(models: &[ModelResult]) -> String {
             .as_ref()
             .and_then(|b| b.random_pairing.as_ref())
         {
-            t += &row(&format!("chance: {} with random music", m.label), r, "-");
+            t += &row(
+                &format!("chance: {} with random music (all pairings)", m.label),
+                r,
+                "-",
+            );
         }
     }
     t += "\n";

@@ -34,7 +34,7 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
         "| tiny FACT |",
         "| tiny QEAN (full: SPE + QRA) |",
         "| chance: frozen seed pose |",
-        "| chance: tiny FACT with random music |",
+        "| chance: tiny FACT with random music (all pairings) |",
     ] {
         assert!(table.contains(row), "missing {row:?} in:\n{table}");
     }

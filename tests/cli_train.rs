@@ -424,3 +424,55 @@ print(len(m.get_joints_names()), m.nframes)
     assert_clean_failure(&mut c, "bad-checkpoint");
     assert_eq!(before, listing(&out), "a failed sample wrote files");
 }
+
+/// A run that diverges stops with one error line naming the last good checkpoint; no checkpoint with
+/// non-finite weights is ever written, and the good ones still load.
+#[test]
+fn a_diverging_run_stops_cleanly_and_keeps_only_finite_checkpoints() {
+    let d = tempfile::tempdir().unwrap();
+    let data = dataset(d.path());
+    let run = d.path().join("r");
+    run_ok(&mut train_cmd(
+        "tiny/fact.toml",
+        &data,
+        &run,
+        &["train.steps=2", "train.checkpoint_every=1"],
+    ));
+    // Continue with a learning rate of 1e30: the first update breaks every weight.
+    let mut c = qean();
+    c.arg("train").arg("--resume").arg(&run).arg("--plain");
+    for s in [
+        "train.steps=5",
+        "schedule.initial=1e30",
+        "schedule.values=[1e30]",
+    ] {
+        c.arg("--set").arg(s);
+    }
+    // Progress lines (--plain) go to stderr too; the error is the one `error:` line.
+    let out = c.output().unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let errors: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("error: "))
+        .collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    let err = errors[0];
+    assert!(err.contains("training diverged"), "{err}");
+    assert!(err.contains("after update 3"), "{err}");
+    assert!(
+        err.contains("last good checkpoint") && err.contains("step-2"),
+        "{err}"
+    );
+    let left: Vec<String> = checkpoints(&run)
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(left, ["step-1", "step-2"]);
+    for ck in checkpoints(&run) {
+        params_hash(&ck);
+    }
+    let log = std::fs::read_to_string(run.join("train.log")).unwrap();
+    assert!(log.contains("training diverged"), "{log}");
+}

@@ -275,6 +275,40 @@ struct Vm<'a> {
     stack: Vec<Value>,
     marks: Vec<usize>,
     memo: HashMap<u32, Value>,
+    /// Work spent deep-copying values (DUP, PUT, GET), against [`copy_budget`]: a few hundred bytes of
+    /// DUP/APPEND can otherwise nest copies of copies into gigabytes ("pickle bomb").
+    copied: usize,
+}
+
+/// How much copying a pickle of `len` bytes may do: ample for real files (each value is copied a few
+/// times), bounded for hostile ones.
+fn copy_budget(len: usize) -> usize {
+    1_000_000 + 64 * len
+}
+
+/// The copying cost of `v` (nodes, plus a unit per 64 bytes of strings), counted only up to `limit`.
+fn copy_cost(v: &Value, limit: usize) -> usize {
+    let mut cost = 0;
+    let mut todo = vec![v];
+    while let Some(v) = todo.pop() {
+        cost += 1;
+        match v {
+            Value::Str(s) => cost += s.len() / 64,
+            Value::Bytes(b) => cost += b.len() / 64,
+            Value::Tuple(items) | Value::List(items) => todo.extend(items.iter()),
+            Value::Dict(items) => {
+                for (k, x) in items {
+                    todo.push(k);
+                    todo.push(x);
+                }
+            }
+            _ => {}
+        }
+        if cost > limit {
+            break;
+        }
+    }
+    cost
 }
 
 impl<'a> Vm<'a> {
@@ -285,7 +319,29 @@ impl<'a> Vm<'a> {
             stack: Vec::new(),
             marks: Vec::new(),
             memo: HashMap::new(),
+            copied: 0,
         }
+    }
+
+    /// Charges a copy of `cost` to the budget, failing once it is spent.
+    fn charge(&mut self, cost: usize) -> std::result::Result<(), String> {
+        let budget = copy_budget(self.input.len());
+        self.copied = self.copied.saturating_add(cost);
+        if self.copied > budget {
+            return Err(format!(
+                "too many nested copies (more than {budget} objects from {} bytes): not an AIST++ pickle",
+                self.input.len()
+            ));
+        }
+        Ok(())
+    }
+
+    /// A deep copy of the top of the stack, charged to the copy budget before it is made.
+    fn copy_top(&mut self) -> std::result::Result<Value, String> {
+        let budget = copy_budget(self.input.len());
+        let cost = copy_cost(self.top()?, budget);
+        self.charge(cost)?;
+        Ok(self.top()?.clone())
     }
 
     fn take(&mut self, n: usize) -> std::result::Result<&'a [u8], String> {
@@ -390,7 +446,7 @@ impl<'a> Vm<'a> {
                     self.pop_mark()?;
                 }
                 b'2' => {
-                    let v = self.top()?.clone();
+                    let v = self.copy_top()?;
                     self.push(v)?;
                 }
                 b'N' => self.push(Value::None)?,
@@ -592,22 +648,22 @@ impl<'a> Vm<'a> {
                 }
                 b'p' => {
                     let idx: u32 = self.line()?.trim().parse().map_err(|_| "bad PUT")?;
-                    let v = self.top()?.clone();
+                    let v = self.copy_top()?;
                     self.memo.insert(idx, v);
                 }
                 b'q' => {
                     let idx = self.u8()? as u32;
-                    let v = self.top()?.clone();
+                    let v = self.copy_top()?;
                     self.memo.insert(idx, v);
                 }
                 b'r' => {
                     let idx = self.u32()?;
-                    let v = self.top()?.clone();
+                    let v = self.copy_top()?;
                     self.memo.insert(idx, v);
                 }
                 0x94 => {
                     let idx = self.memo.len() as u32;
-                    let v = self.top()?.clone();
+                    let v = self.copy_top()?;
                     self.memo.insert(idx, v);
                 }
                 b'g' => {
@@ -633,11 +689,13 @@ impl<'a> Vm<'a> {
     }
 
     fn get(&mut self, idx: u32) -> std::result::Result<(), String> {
-        let v = self
-            .memo
-            .get(&idx)
-            .cloned()
-            .ok_or_else(|| format!("memo key {idx} missing"))?;
+        let missing = || format!("memo key {idx} missing");
+        let cost = copy_cost(
+            self.memo.get(&idx).ok_or_else(missing)?,
+            copy_budget(self.input.len()),
+        );
+        self.charge(cost)?;
+        let v = self.memo.get(&idx).cloned().ok_or_else(missing)?;
         self.push(v)
     }
 }
@@ -971,6 +1029,25 @@ fn put_int(out: &mut Vec<u8>, v: i64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_pickle_bomb_is_refused_quickly() {
+        // EMPTY_LIST, then 40 × (DUP, APPEND): each step doubles the nested copies (2^40 nodes).
+        let mut bomb = vec![0x80, 2, b']'];
+        for _ in 0..40 {
+            bomb.extend_from_slice(b"2a");
+        }
+        bomb.push(b'.');
+        let err = loads(&bomb).unwrap_err();
+        assert!(err.contains("too many nested copies"), "{err}");
+        // The input libFuzzer found (fuzz/regressions/pickle/).
+        let found = std::fs::read(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../fuzz/regressions/pickle/oom-pickle-bomb-dup-append"
+        ))
+        .unwrap();
+        assert!(loads(&found).is_err());
+    }
 
     fn dict_get<'a>(v: &'a Value, key: &str) -> &'a Value {
         match v {

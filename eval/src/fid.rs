@@ -31,6 +31,14 @@ impl Gaussian {
                 "feature vectors of different lengths".into(),
             ));
         }
+        for (i, s) in samples.iter().enumerate() {
+            if let Some(j) = s.iter().position(|v| !v.is_finite()) {
+                return Err(Error::Invalid(format!(
+                    "feature vector {i} has a non-finite value ({}) in dimension {j}",
+                    s[j]
+                )));
+            }
+        }
         let x = DMatrix::from_fn(n, d, |i, j| samples[i][j]);
         let mean = DVector::from_fn(d, |j, _| x.column(j).sum() / n as f64);
         let mut centred = x;

@@ -64,8 +64,10 @@ pub struct RunReport {
 pub struct Baselines {
     /// Every dance replaced by its seed's last frame, held: no motion at all.
     pub frozen: MetricsReport,
-    /// The generated dances, each scored against another music ID's beats (a derangement of the
-    /// music IDs); `None` when all sequences share one music ID.
+    /// The generated dances scored against other music IDs' beats: every rotation of the sorted
+    /// music IDs that moves each dance to another song, its BeatAlign values averaged over those
+    /// pairings (the expected score of a random mismatched pairing); `None` when all sequences share
+    /// one music ID.
     pub random_pairing: Option<MetricsReport>,
 }
 
@@ -87,16 +89,17 @@ pub fn frozen_dances(generated: &[Sequence], seed_frames: usize) -> Vec<Sequence
         .collect()
 }
 
-/// The random-pairing baseline: each name's music ID (5th `_` field) replaced by the next distinct
-/// music ID in sorted order, so no dance keeps its own music. `None` with fewer than two music IDs.
-pub fn repaired_dances(generated: &[Sequence]) -> Option<Vec<Sequence>> {
+/// One random-pairing set: each name's music ID (5th `_` field) replaced by the distinct music ID
+/// `shift` places later in sorted order (1 ≤ shift < number of IDs), so no dance keeps its own music.
+/// `None` with fewer than two music IDs or a shift outside that range.
+pub fn repaired_dances(generated: &[Sequence], shift: usize) -> Option<Vec<Sequence>> {
     let mut ids: Vec<String> = generated
         .iter()
         .filter_map(|s| music_id_of(&s.name))
         .collect();
     ids.sort();
     ids.dedup();
-    if ids.len() < 2 {
+    if ids.len() < 2 || shift == 0 || shift >= ids.len() {
         return None;
     }
     let out = generated
@@ -104,7 +107,7 @@ pub fn repaired_dances(generated: &[Sequence]) -> Option<Vec<Sequence>> {
         .map(|s| {
             let mut fields: Vec<String> = s.name.split('_').map(str::to_string).collect();
             if let Some(pos) = music_id_of(&s.name).and_then(|m| ids.iter().position(|x| *x == m)) {
-                fields[4] = ids[(pos + 1) % ids.len()].clone();
+                fields[4] = ids[(pos + shift) % ids.len()].clone();
             }
             Sequence {
                 name: fields.join("_"),
@@ -113,6 +116,25 @@ pub fn repaired_dances(generated: &[Sequence]) -> Option<Vec<Sequence>> {
         })
         .collect();
     Some(out)
+}
+
+/// The first report with every BeatAlign value replaced by its mean over `reports` (the motions,
+/// hence every other metric, are the same in each). `None` for no reports.
+pub fn average_beat_align(reports: Vec<MetricsReport>) -> Option<MetricsReport> {
+    let mean = |get: fn(&MetricsReport) -> Option<f64>| -> Option<f64> {
+        let v: Vec<f64> = reports.iter().filter_map(get).collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    let beat_align = mean(|r| r.beat_align);
+    let bailando = mean(|r| r.beat_align_bailando);
+    let mint = mean(|r| r.beat_align_mint);
+    let n = reports.len();
+    let mut first = reports.into_iter().next()?;
+    first.beat_align = beat_align;
+    first.beat_align_bailando = bailando;
+    first.beat_align_mint = mint;
+    first.label = format!("{} (mean of {n} pairings)", first.label);
+    Some(first)
 }
 
 /// The pairs of a protocol over the test + val sequences.
@@ -322,16 +344,27 @@ pub fn evaluate_run(args: &Args, run: &Path) -> anyhow::Result<(EvaluationFile, 
         (true, Some(mut cfg)) => {
             cfg.seed_frames = seed_frames;
             cfg.music_offset = 0;
-            let frozen = evaluate(
-                &frozen_dances(&generated, seed_frames),
-                &reference,
-                Some(&lookup),
-                &cfg,
-            )?;
-            let random_pairing = match repaired_dances(&generated) {
-                Some(g) => Some(evaluate(&g, &reference, Some(&lookup), &cfg)?),
-                None => None,
-            };
+            // The baselines repeat the warnings the main evaluation gave (constant reference
+            // dimensions; renamed dances have no GT partner): run them silently.
+            let quiet = || tracing::subscriber::NoSubscriber::default();
+            let frozen = tracing::subscriber::with_default(quiet(), || {
+                evaluate(
+                    &frozen_dances(&generated, seed_frames),
+                    &reference,
+                    Some(&lookup),
+                    &cfg,
+                )
+            })?;
+            let mut pairings = Vec::new();
+            for shift in 1.. {
+                let Some(g) = repaired_dances(&generated, shift) else {
+                    break;
+                };
+                pairings.push(tracing::subscriber::with_default(quiet(), || {
+                    evaluate(&g, &reference, Some(&lookup), &cfg)
+                })?);
+            }
+            let random_pairing = average_beat_align(pairings);
             Some(Baselines {
                 frozen,
                 random_pairing,
@@ -412,13 +445,19 @@ mod tests {
             seq("gLO_sBM_cAll_d13_mLO2_ch02", 3),
             seq("gBR_sBM_cAll_d05_mBR0_ch01", 3),
         ];
-        let r = repaired_dances(&g).unwrap();
+        let r = repaired_dances(&g, 1).unwrap();
         let ids: Vec<String> = r.iter().map(|s| music_id_of(&s.name).unwrap()).collect();
         assert_eq!(ids, ["mLO2", "mBR0", "mPO1", "mLO2"]);
-        for (a, b) in g.iter().zip(&r) {
+        let r2 = repaired_dances(&g, 2).unwrap();
+        let ids2: Vec<String> = r2.iter().map(|s| music_id_of(&s.name).unwrap()).collect();
+        assert_eq!(ids2, ["mPO1", "mLO2", "mBR0", "mPO1"]);
+        for (a, b) in g.iter().zip(r.iter().chain(&r2)) {
             assert_ne!(music_id_of(&a.name), music_id_of(&b.name));
             assert_eq!(a.joints, b.joints);
         }
-        assert!(repaired_dances(&g[..1]).is_none());
+        // Three music IDs: shifts 1 and 2 only.
+        assert!(repaired_dances(&g, 3).is_none());
+        assert!(repaired_dances(&g, 0).is_none());
+        assert!(repaired_dances(&g[..1], 1).is_none());
     }
 }

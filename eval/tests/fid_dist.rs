@@ -126,3 +126,31 @@ fn dist_identities() {
     assert!((b - 2.0 * a).abs() < 1e-12 * b);
     assert!(average_distance(&x[..1]).is_err());
 }
+
+/// Degenerate sets give finite FIDs (zero covariances, a single repeated vector) or a clear error
+/// (non-finite features, one sample), never NaN.
+#[test]
+fn fid_of_degenerate_sets_is_finite_or_an_error() {
+    let constant = vec![vec![1.0, 2.0, 3.0]; 5];
+    let shifted = vec![vec![1.0, 2.0, 5.0]; 7];
+    assert_eq!(fid(&constant, &constant).unwrap(), 0.0);
+    let d = fid(&constant, &shifted).unwrap();
+    assert!((d - 4.0).abs() < 1e-12, "{d}");
+    let zeros = vec![vec![0.0; 72]; 40];
+    let spread: Vec<Vec<f64>> = (0..40)
+        .map(|i| (0..72).map(|j| ((i * 7 + j * 3) % 11) as f64).collect())
+        .collect();
+    let d = fid(&zeros, &spread).unwrap();
+    assert!(d.is_finite() && d > 0.0, "{d}");
+    let mut nan = spread.clone();
+    nan[3][5] = f64::NAN;
+    let err = fid(&nan, &spread).unwrap_err().to_string();
+    assert!(
+        err.contains("feature vector 3") && err.contains("dimension 5"),
+        "{err}"
+    );
+    let mut inf = spread.clone();
+    inf[0][0] = f64::INFINITY;
+    assert!(fid(&spread, &inf).is_err());
+    assert!(fid(&spread[..1], &spread).is_err());
+}

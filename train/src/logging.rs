@@ -8,6 +8,9 @@ use tracing_subscriber::filter::{EnvFilter, LevelFilter};
 use tracing_subscriber::layer::SubscriberExt;
 use tracing_subscriber::Layer;
 
+/// Target of events that go to train.log only.
+pub const FILE_ONLY: &str = "qean_file_only";
+
 /// A subscriber writing to `file` and stderr (used for the duration of one run).
 pub fn subscriber(file: File) -> impl tracing::Subscriber + Send + Sync {
     let to_file = tracing_subscriber::fmt::layer()
@@ -15,8 +18,14 @@ pub fn subscriber(file: File) -> impl tracing::Subscriber + Send + Sync {
         .with_ansi(false)
         .with_target(false)
         .with_filter(LevelFilter::INFO);
-    let stderr_filter =
-        EnvFilter::try_from_env("QEAN_LOG").unwrap_or_else(|_| EnvFilter::new("warn"));
+    // Events with target FILE_ONLY (the final error of a run, which the CLI prints itself) skip stderr.
+    let stderr_filter = EnvFilter::try_from_env("QEAN_LOG")
+        .unwrap_or_else(|_| EnvFilter::new("warn"))
+        .add_directive(
+            format!("{FILE_ONLY}=off")
+                .parse()
+                .expect("static directive"),
+        );
     let to_stderr = tracing_subscriber::fmt::layer()
         .with_writer(std::io::stderr)
         .with_target(false)

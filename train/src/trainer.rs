@@ -317,6 +317,20 @@ impl Session {
         }
     }
 
+    /// The error that ends a diverged run, naming the last good checkpoint (also logged to train.log).
+    fn diverged(&self, what: String) -> Error {
+        let last_good = run_dir::list_checkpoints(&self.run_dir)
+            .ok()
+            .and_then(|l| l.last().map(|(_, d)| d.display().to_string()))
+            .unwrap_or_else(|| "none".into());
+        let msg = format!(
+            "training diverged: {what}; stopped (last good checkpoint: {last_good}). Lower \
+             schedule.initial or set optim.grad_clip_norm"
+        );
+        tracing::error!(target: crate::logging::FILE_ONLY, "{msg}");
+        Error::at(&self.run_dir, msg)
+    }
+
     /// Writes `step-N` atomically, prunes old checkpoints, redraws loss.png.
     fn checkpoint(&mut self) -> Result<PathBuf> {
         let dir = self
@@ -328,7 +342,25 @@ impl Session {
         }
         let parent = self.run_dir.join(run_dir::CHECKPOINTS);
         std::fs::create_dir_all(&parent).map_err(|e| Error::io(&parent, e))?;
+        if let Some(v) = self
+            .val_loss
+            .filter(|v| !v.is_finite() && self.val_step == Some(self.step))
+        {
+            return Err(self.diverged(format!(
+                "the validation loss after update {} is {v}; no checkpoint written",
+                self.step
+            )));
+        }
         let params = qean_models::params::named_parameters(&self.model);
+        if let Some(p) = params
+            .iter()
+            .find(|p| p.values.iter().any(|v| !v.is_finite()))
+        {
+            return Err(self.diverged(format!(
+                "parameter {} is not finite after update {}; no checkpoint written",
+                p.name, self.step
+            )));
+        }
         let state = self.state(qean_models::params::params_hash(&params));
         let config_text = self.config.to_toml();
         qean_data::fsutil::atomic_dir(&dir, |tmp| {
@@ -624,16 +656,7 @@ fn run_loop(s: &mut Session, opts: &TrainOptions) -> Result<TrainOutcome> {
         let value = loss.clone().into_scalar::<f32>() as f64;
         if !value.is_finite() {
             reporter.finish();
-            let last_good = run_dir::list_checkpoints(&s.run_dir)?
-                .last()
-                .map(|(_, d)| d.display().to_string())
-                .unwrap_or_else(|| "none".into());
-            let msg = format!(
-                "training diverged: the loss of update {} is {value}; stopped (last good checkpoint: {last_good}). Lower schedule.initial or set optim.grad_clip_norm",
-                s.step + 1
-            );
-            tracing::error!("{msg}");
-            return Err(Error::at(&s.run_dir, msg));
+            return Err(s.diverged(format!("the loss of update {} is {value}", s.step + 1)));
         }
         let lr = s.config.schedule.lr(s.step, total);
         let grads = GradientsParams::from_grads(loss.backward(), &s.model);
