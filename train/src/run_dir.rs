@@ -91,25 +91,28 @@ pub fn list_checkpoints(run_dir: &Path) -> Result<Vec<(u64, PathBuf)>> {
     Ok(out)
 }
 
-/// Remove temporaries left by an interrupted checkpoint write.
+/// Remove temporaries left by interrupted atomic writes (checkpoints, metrics.csv, loss.png, config.toml).
 pub fn clean_temporaries(run_dir: &Path) -> Result<usize> {
-    let dir = run_dir.join(CHECKPOINTS);
-    if !dir.is_dir() {
-        return Ok(0);
-    }
+    // Temporaries of atomic writes live beside their target: checkpoint directories in checkpoints/,
+    // metrics.csv, loss.png and config.toml in the run directory itself.
     let mut n = 0;
-    for e in std::fs::read_dir(&dir).map_err(|e| Error::io(&dir, e))? {
-        let e = e.map_err(|e| Error::io(&dir, e))?;
-        let name = e.file_name().to_string_lossy().into_owned();
-        if name.starts_with('.') && name.ends_with(".tmp") {
-            let p = e.path();
-            let r = if p.is_dir() {
-                std::fs::remove_dir_all(&p)
-            } else {
-                std::fs::remove_file(&p)
-            };
-            r.map_err(|err| Error::io(&p, err))?;
-            n += 1;
+    for dir in [run_dir.join(CHECKPOINTS), run_dir.to_path_buf()] {
+        if !dir.is_dir() {
+            continue;
+        }
+        for e in std::fs::read_dir(&dir).map_err(|e| Error::io(&dir, e))? {
+            let e = e.map_err(|e| Error::io(&dir, e))?;
+            let name = e.file_name().to_string_lossy().into_owned();
+            if name.starts_with('.') && name.ends_with(".tmp") {
+                let p = e.path();
+                let r = if p.is_dir() {
+                    std::fs::remove_dir_all(&p)
+                } else {
+                    std::fs::remove_file(&p)
+                };
+                r.map_err(|err| Error::io(&p, err))?;
+                n += 1;
+            }
         }
     }
     Ok(n)
@@ -166,7 +169,11 @@ mod tests {
             .map(|x| x.0)
             .collect();
         assert_eq!(steps, vec![20, 100, 300]);
-        assert_eq!(clean_temporaries(d.path()).unwrap(), 1);
+        std::fs::write(d.path().join(".loss.png.77.12.tmp"), b"half").unwrap();
+        std::fs::write(d.path().join("metrics.csv"), b"kept").unwrap();
+        assert_eq!(clean_temporaries(d.path()).unwrap(), 2);
+        assert!(d.path().join("metrics.csv").exists());
+        assert!(!d.path().join(".loss.png.77.12.tmp").exists());
         let ck = [
             (10, Some(0.5)),
             (20, Some(0.2)),
