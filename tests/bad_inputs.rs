@@ -14,26 +14,12 @@ use std::time::{Duration, Instant};
 
 mod common;
 use common::*;
+use qean_data::testdata::{npy_bytes, wav_bytes};
 
 /// A 16-bit PCM WAV with a hand-written header, so that every field can be made wrong.
 fn wav(samples: &[i16], channels: u16, rate: u32, format: u16) -> Vec<u8> {
     let data: Vec<u8> = samples.iter().flat_map(|s| s.to_le_bytes()).collect();
-    let block = channels * 2;
-    let mut v = Vec::new();
-    v.extend_from_slice(b"RIFF");
-    v.extend_from_slice(&(36 + data.len() as u32).to_le_bytes());
-    v.extend_from_slice(b"WAVEfmt ");
-    v.extend_from_slice(&16u32.to_le_bytes());
-    v.extend_from_slice(&format.to_le_bytes());
-    v.extend_from_slice(&channels.to_le_bytes());
-    v.extend_from_slice(&rate.to_le_bytes());
-    v.extend_from_slice(&(rate * block as u32).to_le_bytes());
-    v.extend_from_slice(&block.to_le_bytes());
-    v.extend_from_slice(&16u16.to_le_bytes());
-    v.extend_from_slice(b"data");
-    v.extend_from_slice(&(data.len() as u32).to_le_bytes());
-    v.extend_from_slice(&data);
-    v
+    wav_bytes(format, rate, channels, 16, &data, data.len() as u32)
 }
 
 /// A click track: a short 1 kHz burst every half second, `seconds` long, at 22050 Hz.
@@ -46,20 +32,6 @@ fn clicks(seconds: f64) -> Vec<i16> {
             (env * (2.0 * std::f64::consts::PI * 1000.0 * t).sin() * 32767.0) as i16
         })
         .collect()
-}
-
-/// An .npy file with a hand-written header.
-fn npy(descr: &str, shape: &str, data: &[u8]) -> Vec<u8> {
-    let mut header = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
-    while (10 + header.len() + 1) % 64 != 0 {
-        header.push(' ');
-    }
-    header.push('\n');
-    let mut v = b"\x93NUMPY\x01\x00".to_vec();
-    v.extend_from_slice(&(header.len() as u16).to_le_bytes());
-    v.extend_from_slice(header.as_bytes());
-    v.extend_from_slice(data);
-    v
 }
 
 /// Every file under `dir` with its length and a hash of its bytes.
@@ -271,15 +243,19 @@ fn every_bad_input_fails_cleanly_and_changes_nothing() {
         ]),
     );
     // .npy.
-    let rank1 = w.file("rank1.npy", npy("<f4", "(10,)", &[0u8; 40]));
+    let rank1 = w.file("rank1.npy", npy_bytes("<f4", "(10,)", &[0u8; 40]));
     let huge_npy = w.file(
         "huge.npy",
-        npy("<f4", "(1000000000000, 24, 3)", &[0u8; 100]),
+        npy_bytes("<f4", "(1000000000000, 24, 3)", &[0u8; 100]),
     );
-    let complex_npy = w.file("complex.npy", npy("<c8", "(10, 24, 3)", &[0u8; 5760]));
+    let complex_npy = w.file("complex.npy", npy_bytes("<c8", "(10, 24, 3)", &[0u8; 5760]));
     let gen_dir = w.root.join("inputs/generated");
     std::fs::create_dir_all(&gen_dir).unwrap();
-    std::fs::write(gen_dir.join("dance.npy"), npy("<f4", "(7, 5)", &[0u8; 140])).unwrap();
+    std::fs::write(
+        gen_dir.join("dance.npy"),
+        npy_bytes("<f4", "(7, 5)", &[0u8; 140]),
+    )
+    .unwrap();
 
     // TOML.
     let tiny_fact = configs().join("tiny/fact.toml").display().to_string();

@@ -8,26 +8,7 @@ use std::path::Path;
 use common::*;
 use qean_data::audio::decode::decode_file;
 use qean_data::audio::{self, FeatureOptions, LoadOptions, FEATURE_DIM};
-
-/// A canonical PCM WAV header (format tag `tag`) followed by `data`.
-fn wav_bytes(tag: u16, rate: u32, channels: u16, bits: u16, data: &[u8], data_len: u32) -> Vec<u8> {
-    let block = channels as u32 * bits as u32 / 8;
-    let mut v = Vec::new();
-    v.extend_from_slice(b"RIFF");
-    v.extend_from_slice(&(36 + data.len() as u32).to_le_bytes());
-    v.extend_from_slice(b"WAVEfmt ");
-    v.extend_from_slice(&16u32.to_le_bytes());
-    v.extend_from_slice(&tag.to_le_bytes());
-    v.extend_from_slice(&channels.to_le_bytes());
-    v.extend_from_slice(&rate.to_le_bytes());
-    v.extend_from_slice(&(rate.wrapping_mul(block)).to_le_bytes());
-    v.extend_from_slice(&(block as u16).to_le_bytes());
-    v.extend_from_slice(&bits.to_le_bytes());
-    v.extend_from_slice(b"data");
-    v.extend_from_slice(&data_len.to_le_bytes());
-    v.extend_from_slice(data);
-    v
-}
+use qean_data::testdata::wav_bytes;
 
 /// 16-bit PCM WAV of interleaved float samples in [−1, 1].
 fn pcm16_wav(rate: u32, channels: u16, interleaved: &[f64]) -> Vec<u8> {

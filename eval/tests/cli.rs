@@ -17,14 +17,7 @@ fn write_npy(path: &Path, joints: &[Frame], f32_dtype: bool, flat: bool) {
         format!("({}, 24, 3)", joints.len())
     };
     let descr = if f32_dtype { "<f4" } else { "<f8" };
-    let mut header = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
-    while (10 + header.len() + 1) % 64 != 0 {
-        header.push(' ');
-    }
-    header.push('\n');
-    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
-    bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
-    bytes.extend_from_slice(header.as_bytes());
+    let mut bytes = Vec::new();
     for f in joints {
         for p in f {
             for &x in p {
@@ -36,7 +29,7 @@ fn write_npy(path: &Path, joints: &[Frame], f32_dtype: bool, flat: bool) {
             }
         }
     }
-    std::fs::write(path, bytes).unwrap();
+    std::fs::write(path, qean_data::testdata::npy_bytes(descr, &shape, &bytes)).unwrap();
 }
 
 fn fixture(dir: &Path) {

@@ -139,9 +139,6 @@ pub fn music_features(samples: &[f64], opts: &FeatureOptions) -> Result<MusicFea
 
     let onsets = onset_detect(&env, sr, HOP);
     let bt = beat_track(&env, sr, HOP, opts.start_bpm, opts.tightness);
-    if env.iter().all(|&v| v == 0.0) {
-        tracing::debug!("the audio is silent (flat onset envelope): no onsets, no beats");
-    }
     assemble(&env, &mfcc, &cens, onsets, bt.beats, bt.tempo_bpm, tuning)
 }
 
