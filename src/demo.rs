@@ -149,7 +149,7 @@ fn say(msg: impl AsRef<str>) {
 }
 
 /// Writes the embedded files under `out` (skipping those already there with the same bytes).
-fn write_assets(out: &Path) -> anyhow::Result<()> {
+pub fn write_assets(out: &Path) -> anyhow::Result<()> {
     for a in ASSETS {
         let path = out.join(a.path);
         if std::fs::read(&path).ok().as_deref() == Some(a.bytes) {

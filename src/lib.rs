@@ -1,3 +1,4 @@
 //! The `qean` package's library: what the binary does beyond dispatching to the workspace crates.
 
+pub mod bench;
 pub mod demo;

@@ -2,7 +2,7 @@
 //!
 //!     cargo run --release -p qean-data --example bench_features -- [PATH] [REPEATS]
 //!
-//! Peer: tools/bench_librosa_features.py (librosa 0.8.1 + resampy 0.2.2).
+//! Peer: bench/peer/features_librosa.py (librosa 0.8.1 + resampy 0.2.2).
 
 use std::path::PathBuf;
 use std::time::Instant;

@@ -7,78 +7,20 @@
 
 use std::time::Instant;
 
-use qean_eval::{evaluate, EvalConfig, Frame, Sequence, N_JOINTS};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-
-fn motion(rng: &mut ChaCha8Rng, frames: usize) -> Vec<Frame> {
-    let base: Vec<[f64; 3]> = (0..N_JOINTS)
-        .map(|_| {
-            [
-                rng.random_range(-0.5..0.5),
-                rng.random_range(-1.0..0.7),
-                rng.random_range(-0.2..0.2),
-            ]
-        })
-        .collect();
-    let params: Vec<[(f64, f64, f64); 3]> = (0..N_JOINTS)
-        .map(|_| {
-            [0; 3].map(|_| {
-                (
-                    rng.random_range(0.01..0.2),
-                    rng.random_range(0.3..3.0),
-                    rng.random_range(0.0..std::f64::consts::TAU),
-                )
-            })
-        })
-        .collect();
-    (0..frames)
-        .map(|t| {
-            let t = t as f64 / 60.0;
-            let mut f = [[0.0; 3]; N_JOINTS];
-            for j in 0..N_JOINTS {
-                for a in 0..3 {
-                    let (amp, freq, phase) = params[j][a];
-                    f[j][a] = base[j][a] + amp * (std::f64::consts::TAU * freq * t + phase).sin();
-                }
-            }
-            f
-        })
-        .collect()
-}
+use qean_eval::synthetic::SyntheticSet;
+use qean_eval::{evaluate, EvalConfig, Sequence};
 
 fn main() {
     let repeats: usize = std::env::args()
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(3);
-    let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let genres = ["BR", "PO", "LO", "MH", "LH", "HO", "WA", "KR", "JS", "JB"];
-    let name = |i: usize| {
-        let g = genres[i % 10];
-        format!(
-            "g{g}_sBM_cAll_d{:02}_m{g}{}_ch{:02}",
-            i % 30,
-            (i / 10) % 6,
-            i % 100
-        )
-    };
-    let reference: Vec<Sequence> = (0..1363)
-        .map(|i| {
-            let frames = if rng.random_bool(0.8) {
-                rng.random_range(480..=720)
-            } else {
-                rng.random_range(1800..=3000)
-            };
-            Sequence::new(name(i), motion(&mut rng, frames))
-        })
-        .collect();
-    let generated: Vec<Sequence> = (0..40)
-        .map(|i| Sequence::new(name(i), motion(&mut rng, 1320)))
-        .collect();
-    let beats =
-        |_: &str| -> qean_eval::Result<Vec<usize>> { Ok((0..200).map(|k| 13 + 30 * k).collect()) };
-    let ref_frames: usize = reference.iter().map(|s| s.joints.len()).sum();
+    let set = SyntheticSet::aist_sized(7, 40, 1320, 1363);
+    let reference: Vec<Sequence> = set.reference.iter().map(|s| s.sequence()).collect();
+    let generated: Vec<Sequence> = set.generated.iter().map(|s| s.sequence()).collect();
+    let music = set.beats(6000);
+    let beats = |_: &str| -> qean_eval::Result<Vec<usize>> { Ok(music.clone()) };
+    let ref_frames = set.reference_frames();
     println!(
         "40 generated x 1320 frames vs 1363 reference ({ref_frames} frames, mean {:.0}); {} rayon threads",
         ref_frames as f64 / 1363.0,
@@ -117,7 +59,6 @@ fn main() {
             .expect("geometric");
     }
     let g = t0.elapsed().as_secs_f64() * 1e3;
-    let music = beats("").expect("beats");
     let t0 = Instant::now();
     for s in &reference {
         qean_eval::beat_align::score_ground_truth(&s.joints, &music);

@@ -21,6 +21,7 @@ pub mod positions;
 pub mod protocol;
 pub mod report;
 pub mod run_eval;
+pub mod synthetic;
 
 pub use config::{
     BaSegment, BaVariant, EvalConfig, GeometricVariant, MetricsMode, MusicBeatSource, PositionMode,

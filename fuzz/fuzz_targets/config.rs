@@ -7,6 +7,6 @@ mod common;
 
 fuzz_target!(|data: &[u8]| {
     let path = common::scratch("config.toml", data);
-    let _ = qean_train::RunConfig::load(&path, &[]);
-    let _ = qean_train::sweep::plan(&path, Some(std::path::Path::new("/nonexistent")), &[]);
+    let _ = qean_config::RunConfig::load(&path, &[]);
+    let _ = qean_config::sweep::plan(&path, Some(std::path::Path::new("/nonexistent")), &[]);
 });

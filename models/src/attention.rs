@@ -12,6 +12,8 @@ use burn::config::Config;
 use burn::module::Module;
 use burn::nn::{Dropout, DropoutConfig, Linear};
 use burn::tensor::activation::softmax;
+use burn::tensor::module::attention;
+use burn::tensor::ops::AttentionModuleOptions;
 use burn::tensor::{Device, Tensor};
 
 use crate::config::AttnScale;
@@ -83,7 +85,9 @@ pub fn merge_heads(x: Tensor<4>) -> Tensor<3> {
     x.swap_dims(1, 2).reshape([b, n, h * d])
 }
 
-/// softmax(q·kᵀ·scale)·v per head, with dropout on the probabilities.
+/// softmax(q·kᵀ·scale)·v per head, with dropout on the probabilities. Where no dropout can apply
+/// (a plain device, or probability 0) this is the backend's fused attention, which on flex never
+/// materialises the score matrix (under autodiff Burn runs the same ops as below).
 pub fn attend(
     q: Tensor<4>,
     k: Tensor<4>,
@@ -91,7 +95,16 @@ pub fn attend(
     scale: f64,
     dropout: &Dropout,
 ) -> Tensor<4> {
-    let scores = q.matmul(k.swap_dims(2, 3)).mul_scalar(scale);
+    if dropout.prob == 0.0 || !q.device().is_autodiff() {
+        let options = AttentionModuleOptions {
+            scale: Some(scale),
+            softcap: None,
+            is_causal: false,
+        };
+        return attention(q, k, v, None, None, options);
+    }
+    // The scale goes on q ([N, d] per head) rather than on the [N, N] scores.
+    let scores = q.mul_scalar(scale).matmul(k.swap_dims(2, 3));
     let probs = dropout.forward(softmax(scores, 3));
     probs.matmul(v)
 }
@@ -106,6 +119,22 @@ impl Attention {
         let v = split_heads(qkv.narrow(2, 2 * c, c), self.heads);
         if let Some(tables) = rope {
             q = tables.rotate(q);
+            k = tables.rotate(k);
+        }
+        let heads = attend(q, k, v, self.scale, &self.dropout);
+        self.output.forward(merge_heads(heads))
+    }
+
+    /// Only the first query: x [B, N, C] → [B, 1, C], equal to `forward(x, rope)` at token 0 (keys
+    /// and values still cover all N tokens). The sampler reads nothing else of the last layer.
+    pub fn forward_first(&self, x: Tensor<3>, rope: Option<&RotaryTables>) -> Tensor<3> {
+        let [_, _, c] = x.dims();
+        let qkv = self.qkv.forward(x);
+        let mut q = split_heads(qkv.clone().narrow(1, 0, 1).narrow(2, 0, c), self.heads);
+        let mut k = split_heads(qkv.clone().narrow(2, c, c), self.heads);
+        let v = split_heads(qkv.narrow(2, 2 * c, c), self.heads);
+        if let Some(tables) = rope {
+            q = tables.narrow(0, 1).rotate(q);
             k = tables.rotate(k);
         }
         let heads = attend(q, k, v, self.scale, &self.dropout);

@@ -5,11 +5,8 @@
 
 use burn::tensor::Device;
 
-/// Backend names `device` accepts.
-pub const BACKENDS: [&str; 3] = ["flex", "ndarray", "wgpu"];
-
-/// The default backend.
-pub const DEFAULT_BACKEND: &str = "flex";
+/// Backend names `device` accepts, and the default one.
+pub use qean_config::{BACKENDS, DEFAULT_BACKEND};
 
 /// The device of a backend named on the command line or in a config; a one-line error for an
 /// unknown name, a backend this build lacks, or one that cannot start.

@@ -116,14 +116,27 @@ impl FactConfig {
 impl Fact {
     /// motion [B, 120, D], audio [B, 240, 35] → [B, 360, D] (tokens 0..120 motion, 120..360 audio).
     pub fn forward(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
+        let (x, _) = self
+            .cross_transformer
+            .forward(self.encode(motion, audio), StackContext::default());
+        self.output.forward(x)
+    }
+
+    /// Token 0 of [`Fact::forward`], [B, 1, D]: the prediction of frame 120, all the sampler needs.
+    pub fn forward_first(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
+        let x = self
+            .cross_transformer
+            .forward_first(self.encode(motion, audio), StackContext::default());
+        self.output.forward(x)
+    }
+
+    /// Both encoders, concatenated motion first: the cross-modal stack's input [B, 360, C].
+    fn encode(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
         let ctx = StackContext::default();
         let m = self.motion_pos.forward(self.motion_embed.forward(motion));
         let (m, _) = self.motion_transformer.forward(m, ctx);
         let a = self.audio_pos.forward(self.audio_embed.forward(audio));
         let (a, _) = self.audio_transformer.forward(a, ctx);
-        let (x, _) = self
-            .cross_transformer
-            .forward(Tensor::cat(vec![m, a], 1), ctx);
-        self.output.forward(x)
+        Tensor::cat(vec![m, a], 1)
     }
 }

@@ -4,7 +4,7 @@
 use burn::config::Config;
 use burn::module::Module;
 use burn::nn::Linear;
-use burn::tensor::activation::gelu_approximate;
+use burn::tensor::activation::sigmoid;
 use burn::tensor::{Device, Tensor};
 
 use crate::init::glorot_dense;
@@ -40,11 +40,19 @@ impl FeedForwardConfig {
 impl FeedForward {
     /// x [B, N, C] → [B, N, C].
     pub fn forward(&self, x: Tensor<3>) -> Tensor<3> {
-        // GELU with the tanh approximation, 0.5x(1 + tanh(sqrt(2/π)(x + 0.044715x³))), as mint's
-        // (TF 2.3 era) gelu.
-        self.contract
-            .forward(gelu_approximate(self.expand.forward(x)))
+        self.contract.forward(gelu_tanh(self.expand.forward(x)))
     }
+}
+
+/// GELU with the tanh approximation, 0.5x(1 + tanh(sqrt(2/π)(x + 0.044715x³))), as mint's (TF 2.3
+/// era) gelu; computed as x·σ(2u) (the same function: 0.5(1 + tanh u) = σ(2u)) with x³ from
+/// products, so one exp per element and no powf or tanh (which cost a quarter of a CPU step).
+pub fn gelu_tanh<const D: usize>(x: Tensor<D>) -> Tensor<D> {
+    let a = 2.0 * (2.0 / std::f64::consts::PI).sqrt();
+    let b = a * 0.044715;
+    // 2u = x·(a + b·x²)
+    let two_u = x.clone() * (x.clone() * x.clone()).mul_scalar(b).add_scalar(a);
+    x * sigmoid(two_u)
 }
 
 #[cfg(test)]
@@ -55,8 +63,8 @@ mod tests {
     #[test]
     fn gelu_is_the_tanh_approximation() {
         let device = Device::flex();
-        let xs = vec![-3.0, -1.0, -0.1, 0.0, 0.5, 2.0];
-        let y = to_vec(gelu_approximate(f64_tensor(xs.clone(), [6], &device)));
+        let xs = vec![-30.0, -3.0, -1.0, -0.1, 0.0, 0.5, 2.0, 30.0];
+        let y = to_vec(gelu_tanh(f64_tensor(xs.clone(), [8], &device)));
         for (x, g) in xs.iter().zip(y) {
             let inner = (2.0 / std::f64::consts::PI).sqrt() * (x + 0.044715 * x.powi(3));
             let want = 0.5 * x * (1.0 + inner.tanh());
@@ -64,7 +72,34 @@ mod tests {
         }
         // Not the erf GELU: they differ by ~1e-4 near x = -1... measurable in f64.
         let erf_like = -0.15865525393145707; // x·Φ(x) at x = −1
-        let tanh_value = to_vec(gelu_approximate(f64_tensor(vec![-1.0], [1], &device)))[0];
+        let tanh_value = to_vec(gelu_tanh(f64_tensor(vec![-1.0], [1], &device)))[0];
         assert!((tanh_value - erf_like).abs() > 1e-5);
+        // Burn's own tanh-GELU agrees (it computes the same function the slow way).
+        let burn = to_vec(burn::tensor::activation::gelu_approximate(f64_tensor(
+            xs.clone(),
+            [8],
+            &device,
+        )));
+        let ours = to_vec(gelu_tanh(f64_tensor(xs, [8], &device)));
+        for (a, b) in burn.iter().zip(&ours) {
+            assert!((a - b).abs() < 1e-13, "{a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn gelu_gradient_matches_the_derivative() {
+        // d/dx of 0.5x(1 + tanh u): 0.5(1 + tanh u) + 0.5x(1 − tanh²u)·u'.
+        let device = Device::flex().autodiff();
+        let xs = vec![-2.5, -0.7, 0.0, 0.3, 1.9];
+        let x = f64_tensor(xs.clone(), [5], &device).require_grad();
+        let grads = gelu_tanh(x.clone()).sum().backward();
+        let g = to_vec(x.grad(&grads).unwrap());
+        let c = (2.0 / std::f64::consts::PI).sqrt();
+        for (x, g) in xs.iter().zip(g) {
+            let u = c * (x + 0.044715 * x.powi(3));
+            let du = c * (1.0 + 3.0 * 0.044715 * x * x);
+            let want = 0.5 * (1.0 + u.tanh()) + 0.5 * x * (1.0 - u.tanh().powi(2)) * du;
+            assert!((g - want).abs() < 1e-12, "{x}: {g} vs {want}");
+        }
     }
 }

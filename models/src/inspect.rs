@@ -31,7 +31,7 @@ pub struct Inspection {
 /// Loads a config file, instantiates its model lazily and summarises it.
 pub fn inspect(path: &Path) -> Result<Inspection, ConfigError> {
     let config = load_model_config(path)?;
-    let model = config.init(&Device::flex());
+    let model = DanceModel::new(&config, &Device::flex());
     let params = model.num_params();
     let summary = summary(&config, &model, Some(path));
     Ok(Inspection {
@@ -261,7 +261,7 @@ mod tests {
     use crate::config::{Arch, QraDk, QraLayers};
 
     fn count(c: &ModelConfig) -> usize {
-        c.init(&Device::flex()).num_params()
+        DanceModel::new(c, &Device::flex()).num_params()
     }
 
     fn qean() -> ModelConfig {

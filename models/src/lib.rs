@@ -5,7 +5,7 @@
 //! Entry points:
 //! - [`config::load_model_config`] / [`config::load_merged_table`]: the `[model]` table of a run
 //!   config (TOML, `extends` chains, unknown keys rejected with file and line);
-//! - [`ModelConfig::init`] → [`DanceModel`] (FACT or QEAN), `forward(motion, audio)`;
+//! - [`DanceModel::new`]: the model (FACT or QEAN) a [`ModelConfig`] describes; `forward(motion, audio)`;
 //! - [`loss::motion_loss`]: L2 on the first 20 output tokens;
 //! - [`DanceModel::save_weights`] / [`DanceModel::load_weights`]: burnpack files;
 //! - [`inspect::inspect`]: summary and exact parameter count for `qean inspect`;
@@ -13,7 +13,8 @@
 
 pub mod attention;
 pub mod backend;
-pub mod config;
+/// The `[model]` schema lives in qean-config (no Burn); re-exported under its old path.
+pub use qean_config::model as config;
 pub mod cross_prefix;
 pub mod fact;
 pub mod feed_forward;

@@ -12,7 +12,8 @@ use crate::qean::{ModelOutput, Qean, QeanConfig};
 
 /// What the sampler needs from a model: one window in, every output token out.
 pub trait DanceGenerator {
-    /// motion [B, Lm, D], audio [B, La, A] → [B, Lm + La, D]; token 0 predicts frame Lm.
+    /// motion [B, Lm, D], audio [B, La, A] → the prediction of frame Lm, [B, 1, D] (token 0 of
+    /// the forward pass; implementations skip what only the other tokens need).
     fn generate(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3>;
 }
 
@@ -27,18 +28,16 @@ pub enum DanceModel {
     Qean(Qean),
 }
 
-impl ModelConfig {
-    /// Builds the model this config describes (parameters initialise lazily from the device
+impl DanceModel {
+    /// Builds the model a config describes (parameters initialise lazily from the device
     /// RNG: seed with `device.seed(..)` first for a reproducible init).
-    pub fn init(&self, device: &Device) -> DanceModel {
-        match self.arch {
-            Arch::Fact => DanceModel::Fact(FactConfig::from(self).init(device)),
-            Arch::Qean => DanceModel::Qean(QeanConfig::new(self.clone()).init(device)),
+    pub fn new(config: &ModelConfig, device: &Device) -> DanceModel {
+        match config.arch {
+            Arch::Fact => DanceModel::Fact(FactConfig::from(config).init(device)),
+            Arch::Qean => DanceModel::Qean(QeanConfig::new(config.clone()).init(device)),
         }
     }
-}
 
-impl DanceModel {
     /// motion [B, Lm, D], audio [B, La, A] → [B, Lm + La, D].
     pub fn forward(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
         match self {
@@ -115,19 +114,22 @@ fn shorten_lists(text: &str, keep: usize) -> String {
 
 impl DanceGenerator for DanceModel {
     fn generate(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
-        self.forward(motion, audio)
+        match self {
+            DanceModel::Fact(m) => m.forward_first(motion, audio),
+            DanceModel::Qean(m) => m.forward_first(motion, audio),
+        }
     }
 }
 
 impl DanceGenerator for Fact {
     fn generate(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
-        self.forward(motion, audio)
+        self.forward_first(motion, audio)
     }
 }
 
 impl DanceGenerator for Qean {
     fn generate(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
-        self.forward(motion, audio)
+        self.forward_first(motion, audio)
     }
 }
 
@@ -183,6 +185,56 @@ mod tests {
     }
 
     #[test]
+    fn generate_is_token_zero_of_the_forward_pass() {
+        // The sampler's shortcut (last layer for token 0 only) changes no number beyond f64
+        // rounding, for FACT and for QEAN with rotary positions, QRA in the last layer or only in
+        // the first, a cross-prefix block and per-modality or concatenated positions.
+        use crate::config::{CrossPositions, QraLayers, QraTopology};
+        use crate::testing::{f64_normal, to_f64};
+        let device = Device::flex();
+        let qean = tiny(Arch::Qean);
+        let configs = [
+            tiny(Arch::Fact),
+            qean.clone(),
+            ModelConfig {
+                position: PositionKind::Rotary,
+                ..qean.clone()
+            },
+            ModelConfig {
+                position: PositionKind::Rotary,
+                cross_positions: CrossPositions::Concatenated,
+                ..qean.clone()
+            },
+            ModelConfig {
+                attention: AttentionKind::Qra,
+                ..qean.clone()
+            },
+            ModelConfig {
+                position: PositionKind::Rotary,
+                attention: AttentionKind::Qra,
+                qra_layers: QraLayers::FirstK,
+                qra_layers_k: 1,
+                ..qean.clone()
+            },
+            ModelConfig {
+                attention: AttentionKind::Qra,
+                qra_topology: QraTopology::CrossPrefix,
+                ..qean.clone()
+            },
+        ];
+        for config in configs {
+            let model = to_f64(DanceModel::new(&config, &device));
+            let m = f64_normal([3, config.motion_len, config.motion_dim()], &device);
+            let a = f64_normal([3, config.audio_len, config.audio_dim], &device);
+            let full = model.forward(m.clone(), a.clone()).narrow(1, 0, 1);
+            let first = model.generate(m, a);
+            assert_eq!(first.dims(), [3, 1, 225]);
+            let diff = max_abs_diff(first, full);
+            assert!(diff < 1e-10, "{config:?}: {diff}");
+        }
+    }
+
+    #[test]
     fn output_shape_and_save_load_round_trip() {
         let device = Device::flex();
         let dir = tempfile::tempdir().unwrap();
@@ -195,13 +247,13 @@ mod tests {
                 ..tiny(Arch::Qean)
             },
         ] {
-            let model = config.init(&device);
+            let model = DanceModel::new(&config, &device);
             let (m, a) = inputs(&config, &device);
             let y = model.forward(m.clone(), a.clone());
             assert_eq!(y.dims(), [2, 16, 225]);
             let path = model.save_weights(&dir.path().join("w")).unwrap();
             assert_eq!(path.extension().unwrap(), "bpk");
-            let fresh = config.init(&device);
+            let fresh = DanceModel::new(&config, &device);
             assert!(max_abs_diff(fresh.forward(m.clone(), a.clone()), y.clone()) > 1e-6);
             let loaded = fresh.load_weights(&path).unwrap();
             assert_eq!(max_abs_diff(loaded.forward(m, a), y), 0.0);
@@ -212,18 +264,18 @@ mod tests {
     fn loading_into_another_architecture_fails_with_the_file_named() {
         let device = Device::flex();
         let dir = tempfile::tempdir().unwrap();
-        let path = tiny(Arch::Fact)
-            .init(&device)
+        let path = DanceModel::new(&tiny(Arch::Fact), &device)
             .save_weights(&dir.path().join("fact.bpk"))
             .unwrap();
         let other = ModelConfig {
             hidden: 32,
             ..tiny(Arch::Fact)
         };
-        let e = other.init(&device).load_weights(&path).unwrap_err();
+        let e = DanceModel::new(&other, &device)
+            .load_weights(&path)
+            .unwrap_err();
         assert!(e.contains("fact.bpk") && !e.contains('\n'), "{e}");
-        let e = tiny(Arch::Fact)
-            .init(&device)
+        let e = DanceModel::new(&tiny(Arch::Fact), &device)
             .load_weights(&dir.path().join("missing.bpk"))
             .unwrap_err();
         assert!(e.contains("missing.bpk"), "{e}");
@@ -236,12 +288,12 @@ mod tests {
         let device = Device::flex();
         let dir = tempfile::tempdir().unwrap();
         let fact_config = tiny(Arch::Fact);
-        let DanceModel::Fact(fact) = fact_config.init(&device) else {
+        let DanceModel::Fact(fact) = DanceModel::new(&fact_config, &device) else {
             unreachable!()
         };
         let path = dir.path().join("fact.bpk");
         fact.clone().save_file(&path).unwrap();
-        let DanceModel::Qean(qean) = tiny(Arch::Qean).init(&device) else {
+        let DanceModel::Qean(qean) = DanceModel::new(&tiny(Arch::Qean), &device) else {
             unreachable!()
         };
         let qean = qean.try_load_file(&path).unwrap();

@@ -191,7 +191,7 @@ pub fn read_safetensors(path: &Path) -> Result<(Vec<NamedParam>, HashMap<String,
 mod tests {
     use super::*;
     use crate::config::{Arch, AttentionKind, PositionKind};
-    use crate::ModelConfig;
+    use crate::{DanceModel, ModelConfig};
     use burn::tensor::Device;
 
     fn tiny(arch: Arch) -> ModelConfig {
@@ -221,7 +221,7 @@ mod tests {
                 ..tiny(Arch::Qean)
             },
         ] {
-            let model = c.init(&device);
+            let model = DanceModel::new(&c, &device);
             let shapes = parameter_shapes(&model);
             let total: usize = shapes
                 .iter()
@@ -252,7 +252,7 @@ mod tests {
     fn hash_changes_with_any_value_and_round_trips_through_safetensors() {
         let device = Device::flex();
         device.seed(3);
-        let model = tiny(Arch::Fact).init(&device);
+        let model = DanceModel::new(&tiny(Arch::Fact), &device);
         let params = named_parameters(&model);
         let h = params_hash(&params);
         assert_eq!(h.len(), 64);

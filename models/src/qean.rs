@@ -200,6 +200,16 @@ impl Qean {
 
     /// The prediction and the weighted QRA penalty (for training).
     pub fn forward_with_penalty(&self, motion: Tensor<3>, audio: Tensor<3>) -> ModelOutput {
+        self.run(motion, audio, false)
+    }
+
+    /// Token 0 of [`Qean::forward`], [B, 1, D]: the prediction of the next frame, all the sampler
+    /// needs (the last cross-modal block computes only that token where it can).
+    pub fn forward_first(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
+        self.run(motion, audio, true).prediction
+    }
+
+    fn run(&self, motion: Tensor<3>, audio: Tensor<3>, first_only: bool) -> ModelOutput {
         let [_, lm, _] = motion.dims();
         let [_, la, _] = audio.dims();
         let mut penalties: Vec<QraPenalty> = Vec::new();
@@ -262,15 +272,18 @@ impl Qean {
                 .collect(),
         };
         let x_tables = self.tables(&rope_positions, &x);
-        let (x, p) = self.cross_transformer.forward(
-            x,
-            StackContext {
-                rope: x_tables.head.as_ref(),
-                qra_rope: x_tables.qra.as_ref(),
-                qra_positions: &qra_positions,
-            },
-        );
-        penalties.extend(p);
+        let ctx = StackContext {
+            rope: x_tables.head.as_ref(),
+            qra_rope: x_tables.qra.as_ref(),
+            qra_positions: &qra_positions,
+        };
+        let x = if first_only {
+            self.cross_transformer.forward_first(x, ctx)
+        } else {
+            let (x, p) = self.cross_transformer.forward(x, ctx);
+            penalties.extend(p);
+            x
+        };
         ModelOutput {
             prediction: self.output.forward(x),
             penalty: self.weighted_penalty(penalties),

@@ -30,7 +30,6 @@ pub fn first_tokens<M: DanceGenerator>(
     );
     model
         .generate(m, a)
-        .narrow(1, 0, 1)
         .into_data()
         .convert::<f32>()
         .try_to_vec::<f32>()
@@ -63,7 +62,7 @@ pub fn sample<M: DanceGenerator>(
 mod tests {
     use super::*;
     use crate::config::{Arch, AttentionKind, PositionKind};
-    use crate::ModelConfig;
+    use crate::{DanceModel, ModelConfig};
     use qean_data::motion::Layout;
     use qean_data::windows::WindowSpec;
 
@@ -101,7 +100,7 @@ mod tests {
     fn batched_sampling_equals_one_by_one() {
         let device = Device::flex();
         device.seed(5);
-        let model = tiny().init(&device);
+        let model = DanceModel::new(&tiny(), &device);
         let opts = SampleOptions {
             frames: 12,
             layout: Layout::L225,

@@ -116,6 +116,22 @@ impl Block {
         let x = x.clone() + self.residual_dropout.forward(self.mlp.forward(h));
         (x, penalty)
     }
+
+    /// Token 0 of [`Block::forward`], [B, 1, C], computing the attention query, the residuals and
+    /// the MLP for that token alone (a QRA block runs whole: its rotations need every position).
+    pub fn forward_first(&self, x: Tensor<3>, ctx: StackContext) -> Tensor<3> {
+        let h = self.attention_norm.forward(x.clone());
+        let a = match &self.mixer {
+            Mixer::Softmax(attn) => attn.forward_first(h, ctx.rope),
+            Mixer::Qra(qra) => qra
+                .forward(h, ctx.qra_positions, ctx.qra_rope)
+                .0
+                .narrow(1, 0, 1),
+        };
+        let x = x.narrow(1, 0, 1) + self.residual_dropout.forward(a);
+        let h = self.mlp_norm.forward(x.clone());
+        x + self.residual_dropout.forward(self.mlp.forward(h))
+    }
 }
 
 /// Configuration of a [`Transformer`]: one block config per layer.
@@ -157,6 +173,19 @@ impl Transformer {
             penalties.extend(p);
         }
         (x, penalties)
+    }
+
+    /// Token 0 of [`Transformer::forward`], [B, 1, C]: every block but the last runs whole, the
+    /// last only for token 0 (what autoregressive sampling reads).
+    pub fn forward_first(&self, x: Tensor<3>, ctx: StackContext) -> Tensor<3> {
+        let Some((last, below)) = self.blocks.split_last() else {
+            return x.narrow(1, 0, 1);
+        };
+        let mut x = x;
+        for block in below {
+            x = block.forward(x, ctx).0;
+        }
+        last.forward_first(x, ctx)
     }
 }
 

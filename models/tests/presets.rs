@@ -10,7 +10,7 @@ use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_models::inspect::{formula_param_count, inspect};
 use qean_models::loss::motion_loss;
-use qean_models::ModelConfig;
+use qean_models::{DanceModel, ModelConfig};
 
 fn preset(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -43,7 +43,7 @@ fn mint_fact_output_is_batch_by_360_by_225() {
     let config = inspect(&preset("fact.toml")).unwrap().config;
     let device = Device::flex();
     device.seed(1);
-    let model = config.init(&device);
+    let model = DanceModel::new(&config, &device);
     let motion = Tensor::<3>::zeros([1, 120, 225], &device);
     let audio = Tensor::<3>::zeros([1, 240, 35], &device);
     let out = model.forward(motion, audio);
@@ -92,7 +92,7 @@ fn overfit(name: &str) -> (f64, f64, usize, f64) {
     let config = qean_models::config::load_model_config(&preset(name)).unwrap();
     let device = Device::flex().autodiff();
     device.seed(7);
-    let mut model = config.init(&device);
+    let mut model = DanceModel::new(&config, &device);
     let (motion, audio, target) = batch(&config, 2, &device);
     let eval = |model: &qean_models::DanceModel| -> f64 {
         let plain = Device::flex();

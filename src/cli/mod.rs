@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 
+mod bench_cmd;
 mod data_cmds;
 mod demo_cmd;
 mod features_cmd;
@@ -40,6 +41,7 @@ pub enum Command {
     /// AIST++ metrics (FID_k, FID_g, Dist_k, Dist_g, BeatAlign); the same as the `qean-eval` binary.
     Eval(qean_eval::cli::Args),
     Demo(demo_cmd::DemoArgs),
+    Bench(bench_cmd::BenchArgs),
 }
 
 pub fn init_logging(verbose: u8) {
@@ -92,6 +94,7 @@ fn run_data(command: Command) -> anyhow::Result<()> {
                 data_cmds::inspect(a)
             }
         }
+        Command::Bench(a) => bench_cmd::bench(a),
         Command::Joints(a) => data_cmds::joints(a),
         Command::Render(a) => data_cmds::render(a),
         Command::Convert(a) => data_cmds::convert(a),

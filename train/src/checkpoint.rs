@@ -111,9 +111,7 @@ impl Checkpoint {
 
     /// The model with this checkpoint's weights, on `device`.
     pub fn load_model(&self, device: &Device) -> Result<DanceModel> {
-        self.config
-            .model
-            .init(device)
+        DanceModel::new(&self.config.model, device)
             .load_weights(&self.dir.join(MODEL_FILE))
             .map_err(Error::msg)
     }

@@ -8,7 +8,7 @@ use burn::module::Module;
 use burn::tensor::Device;
 use qean_data::error::{Error, Result};
 use qean_models::params::{named_parameters, parameter_shapes, params_hash, write_safetensors};
-use qean_models::ModelConfig;
+use qean_models::{DanceModel, ModelConfig};
 
 use crate::checkpoint::Checkpoint;
 
@@ -122,7 +122,7 @@ fn layer_pattern(name: &str) -> (String, Option<usize>) {
 /// The markdown table of every tensor of a model config, repeated layers folded to
 /// `layers.{i}` with the index range.
 pub fn weights_table(config: &ModelConfig) -> String {
-    let model = config.init(&Device::flex());
+    let model = DanceModel::new(config, &Device::flex());
     let shapes = parameter_shapes(&model);
     // first position → (pattern, shape, layer range)
     type Row = (String, Vec<usize>, Option<(usize, usize)>);
@@ -221,7 +221,7 @@ rewrites it); a test checks that it lists every tensor of each preset with its s
         let path = configs.join(file);
         let config =
             qean_models::config::load_model_config(&path).map_err(|e| Error::msg(e.to_string()))?;
-        let count = config.init(&Device::flex()).num_params();
+        let count = DanceModel::new(&config, &Device::flex()).num_params();
         s.push_str(&format!(
             "\n## `configs/{file}`: {what}, {} parameters\n\n",
             qean_models::inspect::group_digits(count)

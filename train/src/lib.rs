@@ -9,9 +9,9 @@ pub mod generate;
 pub mod logging;
 pub mod metrics_log;
 pub mod plot;
-pub mod run_config;
+pub use qean_config::run as run_config;
 pub mod run_dir;
-pub mod schedule;
+pub use qean_config::schedule;
 pub mod sweep;
 pub mod trainer;
 

@@ -90,7 +90,8 @@ pub struct TrainOutcome {
     pub checkpoint: PathBuf,
 }
 
-fn adam(config: &RunConfig) -> ModuleOptimizer {
+/// The run's optimiser: Adam with its betas, epsilon, weight decay and gradient clipping.
+pub fn adam(config: &RunConfig) -> ModuleOptimizer {
     let o = &config.optim;
     let mut adam = AdamConfig::new()
         .with_beta_1(o.beta1 as f32)
@@ -105,6 +106,30 @@ fn adam(config: &RunConfig) -> ModuleOptimizer {
         ));
     }
     adam.init()
+}
+
+/// One optimiser update on one batch (motion, audio, target on an autodiff device): forward with
+/// the QRA penalty, the loss of SPEC §5.3, backward, Adam step at `lr`. Returns the updated model
+/// and the loss before the update; a non-finite loss returns the model unchanged.
+pub fn update(
+    model: DanceModel,
+    optim: &mut ModuleOptimizer,
+    motion: Tensor<3>,
+    audio: Tensor<3>,
+    target: Tensor<3>,
+    lr: f64,
+) -> (DanceModel, f64) {
+    let out = model.forward_with_penalty(motion, audio);
+    let mut loss = motion_loss(out.prediction, target);
+    if let Some(p) = out.penalty {
+        loss = loss + p;
+    }
+    let value = loss.clone().into_scalar::<f32>() as f64;
+    if !value.is_finite() {
+        return (model, value);
+    }
+    let grads = GradientsParams::from_grads(loss.backward(), &model);
+    (optim.step(lr, model, grads), value)
 }
 
 /// The device-RNG seed of update `step` (dropout masks are a function of (seed, step)).
@@ -536,7 +561,7 @@ fn train_locked(mut config: RunConfig, opts: &TrainOptions) -> Result<TrainOutco
 
     // Model, optimiser and stream: fresh, or exactly as the checkpoint left them.
     device.seed(seed);
-    let mut model = config.model.init(&device);
+    let mut model = DanceModel::new(&config.model, &device);
     let mut optim = adam(&config);
     let (step, sampler, last_loss, best, elapsed_before) = match &resume_from {
         None => (0, WindowSampler::new(seed, &train_set), None, None, 0.0),
@@ -648,19 +673,13 @@ fn run_loop(s: &mut Session, opts: &TrainOptions) -> Result<TrainOutcome> {
         let batch = s.sampler.next_batch(&s.train_set, t.batch_size);
         let (m, a, target) = tensors(&batch, &s.device);
         s.device.seed(update_seed(t.seed, s.step));
-        let out = s.model.forward_with_penalty(m, a);
-        let mut loss = motion_loss(out.prediction, target);
-        if let Some(p) = out.penalty {
-            loss = loss + p;
-        }
-        let value = loss.clone().into_scalar::<f32>() as f64;
+        let lr = s.config.schedule.lr(s.step, total);
+        let (model, value) = update(s.model.clone(), &mut s.optim, m, a, target, lr);
         if !value.is_finite() {
             reporter.finish();
             return Err(s.diverged(format!("the loss of update {} is {value}", s.step + 1)));
         }
-        let lr = s.config.schedule.lr(s.step, total);
-        let grads = GradientsParams::from_grads(loss.backward(), &s.model);
-        s.model = s.optim.step(lr, s.model.clone(), grads);
+        s.model = model;
         s.step += 1;
         s.last_loss = Some(value);
 

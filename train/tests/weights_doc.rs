@@ -5,6 +5,7 @@ use std::path::Path;
 
 use burn::tensor::Device;
 use qean_models::params::parameter_shapes;
+use qean_models::DanceModel;
 use qean_train::export::{table_lists, weights_doc, DOCUMENTED_PRESETS};
 
 #[test]
@@ -30,7 +31,7 @@ fn weights_doc_lists_every_tensor_of_every_preset() {
             .split("\n## ")
             .next()
             .unwrap();
-        let shapes = parameter_shapes(&config.init(&Device::flex()));
+        let shapes = parameter_shapes(&DanceModel::new(&config, &Device::flex()));
         assert!(shapes.len() > 50, "{file}");
         for p in shapes {
             assert!(

@@ -7,10 +7,9 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::model::{load_merged_table_checked, ConfigError, ModelConfig};
 use qean_data::motion::Layout;
 use qean_data::windows::WindowSpec;
-use qean_models::config::{load_merged_table_checked, ConfigError};
-use qean_models::ModelConfig;
 use serde::{Deserialize, Serialize};
 
 use crate::schedule::ScheduleConfig;
@@ -95,7 +94,7 @@ impl Default for TrainConfig {
             log_every: 10,
             val_every: 1000,
             keep_last: 3,
-            backend: qean_models::backend::DEFAULT_BACKEND.into(),
+            backend: crate::DEFAULT_BACKEND.into(),
         }
     }
 }
@@ -236,10 +235,10 @@ impl RunConfig {
         if t.keep_last == 0 {
             return Err("train.keep_last must be at least 1".into());
         }
-        if !qean_models::backend::BACKENDS.contains(&t.backend.as_str()) {
+        if !crate::BACKENDS.contains(&t.backend.as_str()) {
             return Err(format!(
                 "train.backend must be one of {}, got `{}`",
-                qean_models::backend::BACKENDS.join(", "),
+                crate::BACKENDS.join(", "),
                 t.backend
             ));
         }

@@ -1,0 +1,90 @@
+#!/usr/bin/env python3
+"""Peer of `qean bench` (features): librosa 0.8.1 (+ resampy 0.2.2) computing the 35-D FACT feature of one
+track, as mint's cache_audio_features does. Also the peer of
+`cargo run --release -p qean-data --example bench_features` (a stage breakdown of ours).
+
+    VENV/bin/python bench/peer/features_librosa.py PATH [--repeats N]
+
+VENV: librosa 0.8.1 with resampy 0.2.2 (SPEC §2.8; tools/make_audio_fixtures.py shows the install line).
+Imports and numba's first-call compilation (a warm-up on 1 s of audio) are excluded; each repeat times
+librosa.load(path, sr=30720) and the feature computation. The last output line is the JSON `qean bench`
+reads (value: median seconds per track).
+"""
+import argparse
+import json
+import statistics
+import sys
+import time
+
+import numpy as np
+import librosa
+
+SR = 30720
+HOP = 512
+
+
+def features(y, start_bpm=120.0):
+    env = librosa.onset.onset_strength(y, sr=SR)
+    mfcc = librosa.feature.mfcc(y, sr=SR, n_mfcc=20).T
+    chroma = librosa.feature.chroma_cens(y, sr=SR, hop_length=HOP, n_chroma=12).T
+    peaks = librosa.onset.onset_detect(onset_envelope=env.flatten(), sr=SR, hop_length=HOP)
+    peak_onehot = np.zeros_like(env, dtype=np.float32)
+    peak_onehot[peaks] = 1.0
+    tempo, beats = librosa.beat.beat_track(
+        onset_envelope=env, sr=SR, hop_length=HOP, start_bpm=start_bpm, tightness=100
+    )
+    beat_onehot = np.zeros_like(env, dtype=np.float32)
+    beat_onehot[beats] = 1.0
+    return np.concatenate([env[:, None], mfcc, chroma, peak_onehot[:, None], beat_onehot[:, None]], axis=-1)
+
+
+def peak_rss_mb():
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("path")
+    ap.add_argument("--repeats", type=int, default=3)
+    args = ap.parse_args()
+    # Warm-up: numba JIT of resampy and librosa's jitted helpers.
+    y, _ = librosa.load(args.path, sr=SR, duration=1.0)
+    features(y)
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        pass
+    loads, feats = [], []
+    cpu0 = time.process_time()
+    for _ in range(args.repeats):
+        t0 = time.perf_counter()
+        y, _ = librosa.load(args.path, sr=SR)
+        t1 = time.perf_counter()
+        f = features(y)
+        t2 = time.perf_counter()
+        loads.append(t1 - t0)
+        feats.append(t2 - t1)
+    cpu = (time.process_time() - cpu0) / args.repeats
+    tot = [a + b for a, b in zip(loads, feats)]
+    dur = len(y) / SR
+    print(f"librosa {librosa.__version__}: {args.path} ({dur:.2f} s, {f.shape[0]} frames)")
+    print(f"load+resample: median {statistics.median(loads):.3f} s, min {min(loads):.3f} s")
+    print(f"features:      median {statistics.median(feats):.3f} s, min {min(feats):.3f} s")
+    print(f"total:         median {statistics.median(tot):.3f} s, min {min(tot):.3f} s per track; "
+          f"CPU {cpu:.2f} s per track")
+    print(json.dumps({
+        "name": f"librosa {librosa.__version__}",
+        "value": statistics.median(tot),
+        "peak_rss_mb": peak_rss_mb(),
+        "detail": f"librosa.load(sr=30720) + features, median of {args.repeats}; "
+                  f"load {statistics.median(loads):.2f} s, features {statistics.median(feats):.2f} s",
+    }))
+
+
+if __name__ == "__main__":
+    main()

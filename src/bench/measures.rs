@@ -1,0 +1,406 @@
+//! The measures of `qean bench`, their inputs and their sizes.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use burn::tensor::{Device, Tensor, TensorData};
+use qean_data::audio::{features_for_file, FeatureOptions};
+use qean_data::autoregress::{SampleOptions, SampleRequest};
+use qean_data::windows::AUDIO_DIM;
+use qean_eval::synthetic::SyntheticSet;
+use qean_eval::{evaluate, EvalConfig, Sequence};
+use qean_models::sampler::sample;
+use qean_models::DanceModel;
+use qean_train::trainer::{adam, update};
+use qean_train::RunConfig;
+use serde::{Deserialize, Serialize};
+
+use super::report::Entry;
+
+/// One measure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum MeasureId {
+    Features,
+    Metrics,
+    TrainTiny,
+    TrainMint,
+    SampleTiny,
+    SampleMint,
+}
+
+impl MeasureId {
+    pub const ALL: [MeasureId; 6] = [
+        MeasureId::Features,
+        MeasureId::Metrics,
+        MeasureId::TrainTiny,
+        MeasureId::TrainMint,
+        MeasureId::SampleTiny,
+        MeasureId::SampleMint,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            MeasureId::Features => "features",
+            MeasureId::Metrics => "metrics",
+            MeasureId::TrainTiny => "train-tiny",
+            MeasureId::TrainMint => "train-mint",
+            MeasureId::SampleTiny => "sample-tiny",
+            MeasureId::SampleMint => "sample-mint",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<MeasureId> {
+        MeasureId::ALL.into_iter().find(|m| m.name() == s)
+    }
+
+    /// Runs a model (and so depends on the backend).
+    pub fn uses_model(self) -> bool {
+        !matches!(self, MeasureId::Features | MeasureId::Metrics)
+    }
+
+    /// Model size of a model measure ("tiny" or "mint").
+    pub fn size(self) -> &'static str {
+        match self {
+            MeasureId::TrainMint | MeasureId::SampleMint => "mint",
+            _ => "tiny",
+        }
+    }
+}
+
+/// Sizes and repeat counts.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Sizes {
+    /// Length of the feature track (seconds).
+    pub track_seconds: f64,
+    pub feature_repeats: usize,
+    /// Generated sequences, their frames (seed + generated), reference sequences.
+    pub generated: usize,
+    pub generated_frames: usize,
+    pub reference: usize,
+    pub metric_repeats: usize,
+    pub batch: usize,
+    /// Timed training steps (after one warm-up step).
+    pub train_steps_tiny: usize,
+    pub train_steps_mint: usize,
+    /// Sequences sampled together, and the frames timed (after one warm-up pass).
+    pub sequences: usize,
+    pub sample_frames_tiny: usize,
+    pub sample_frames_mint: usize,
+    /// The horizon the frames-per-second figure is converted to (mint: 1200).
+    pub horizon: usize,
+}
+
+impl Sizes {
+    pub fn new(quick: bool) -> Sizes {
+        Sizes {
+            track_seconds: 60.0,
+            feature_repeats: if quick { 1 } else { 3 },
+            generated: 40,
+            generated_frames: 1320,
+            reference: 1363,
+            metric_repeats: if quick { 1 } else { 3 },
+            batch: 16,
+            train_steps_tiny: if quick { 3 } else { 10 },
+            train_steps_mint: 1,
+            sequences: 40,
+            sample_frames_tiny: if quick { 5 } else { 30 },
+            sample_frames_mint: 1,
+            horizon: 1200,
+        }
+    }
+}
+
+/// Inputs shared by our measures and the peers'.
+pub struct Inputs {
+    pub dir: PathBuf,
+    /// The 60 s track (16-bit WAV at the source's rate).
+    pub track: PathBuf,
+    /// The synthetic metric set and its description for the peer.
+    pub set: SyntheticSet,
+    pub set_json: PathBuf,
+    /// Run configs of the tiny and the mint-size FACT.
+    pub tiny_config: PathBuf,
+    pub mint_config: PathBuf,
+}
+
+impl Inputs {
+    pub fn prepare(dir: &Path, sizes: &Sizes) -> anyhow::Result<Inputs> {
+        crate::demo::write_assets(dir)?;
+        let source = dir.join("assets/music/Kevin_MacLeod_-_Vibe_Ace.ogg");
+        let decoded = qean_data::audio::decode::decode_file(&source, 3600.0)?;
+        let want = (sizes.track_seconds * decoded.rate as f64).round() as usize;
+        // Loop the song if it is shorter than the track.
+        let samples: Vec<f64> = decoded
+            .samples
+            .iter()
+            .cycle()
+            .take(want)
+            .map(|&v| v as f64)
+            .collect();
+        let track = dir.join(format!("track-{}s.wav", sizes.track_seconds));
+        qean_data::wav::write_pcm16(&track, &samples, decoded.rate)?;
+
+        let set =
+            SyntheticSet::aist_sized(7, sizes.generated, sizes.generated_frames, sizes.reference);
+        let set_json = dir.join("metric-set.json");
+        qean_data::fsutil::atomic_write(&set_json, serde_json::to_string(&set)?.as_bytes())?;
+        Ok(Inputs {
+            dir: dir.to_path_buf(),
+            track,
+            set,
+            set_json,
+            tiny_config: dir.join("configs/tiny/fact.toml"),
+            mint_config: dir.join("configs/fact.toml"),
+        })
+    }
+
+    pub fn config(&self, id: MeasureId) -> &Path {
+        match id.size() {
+            "mint" => &self.mint_config,
+            _ => &self.tiny_config,
+        }
+    }
+}
+
+/// Peak resident memory since the last [`reset_peak_rss`] (MiB; NaN where /proc is missing).
+pub fn peak_rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+/// Resets the peak to the current resident size (Linux ≥ 4.0).
+pub fn reset_peak_rss() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Deterministic values in [-1, 1) for benchmark inputs (the timing does not depend on them).
+fn filler(n: usize, seed: u64) -> Vec<f32> {
+    let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    (0..n)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 40) as f32 / (1u64 << 23) as f32 - 1.0
+        })
+        .collect()
+}
+
+/// Runs one measure on `backend` ("" for the measures without a model).
+pub fn run_measure(
+    id: MeasureId,
+    backend: &str,
+    inputs: &Inputs,
+    sizes: &Sizes,
+) -> anyhow::Result<Entry> {
+    reset_peak_rss();
+    let mut entry = match id {
+        MeasureId::Features => features(inputs, sizes)?,
+        MeasureId::Metrics => metrics(inputs, sizes)?,
+        MeasureId::TrainTiny | MeasureId::TrainMint => train(id, backend, inputs, sizes)?,
+        MeasureId::SampleTiny | MeasureId::SampleMint => sampling(id, backend, inputs, sizes)?,
+    };
+    entry.peak_rss_mb = peak_rss_mb();
+    Ok(entry)
+}
+
+fn features(inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
+    let opts = FeatureOptions::default();
+    let mut times = Vec::new();
+    for _ in 0..sizes.feature_repeats.max(1) {
+        let t = Instant::now();
+        let f = features_for_file(&inputs.track, &opts)?;
+        times.push(t.elapsed().as_secs_f64());
+        anyhow::ensure!(f.frames > 0, "no feature frames");
+    }
+    Ok(Entry::time(
+        MeasureId::Features,
+        "",
+        median(times),
+        "s per track",
+        format!(
+            "{} s track, decode + resample + 35-D features, median of {}",
+            sizes.track_seconds,
+            sizes.feature_repeats.max(1)
+        ),
+    ))
+}
+
+fn metrics(inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
+    let set = &inputs.set;
+    let reference: Vec<Sequence> = set.reference.iter().map(|s| s.sequence()).collect();
+    let generated: Vec<Sequence> = set.generated.iter().map(|s| s.sequence()).collect();
+    let longest = reference.iter().map(|s| s.joints.len()).max().unwrap_or(0);
+    let music = set.beats(longest.max(sizes.generated_frames) + 1);
+    let beats = |_: &str| -> qean_eval::Result<Vec<usize>> { Ok(music.clone()) };
+    let cfg = EvalConfig::default();
+    let mut times = Vec::new();
+    for _ in 0..sizes.metric_repeats.max(1) {
+        let t = Instant::now();
+        let report = evaluate(&generated, &reference, Some(&beats), &cfg)?;
+        times.push(t.elapsed().as_secs_f64());
+        anyhow::ensure!(report.fid_k.is_finite(), "FID_k is not finite");
+    }
+    Ok(Entry::time(
+        MeasureId::Metrics,
+        "",
+        median(times),
+        "s per evaluation",
+        format!(
+            "{} generated × {} frames vs {} reference ({} frames), all five metrics, median of {}",
+            sizes.generated,
+            sizes.generated_frames,
+            sizes.reference,
+            set.reference_frames(),
+            sizes.metric_repeats.max(1)
+        ),
+    ))
+}
+
+fn load_config(path: &Path) -> anyhow::Result<RunConfig> {
+    RunConfig::load(path, &[]).map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+fn device(backend: &str) -> anyhow::Result<Device> {
+    qean_models::backend::device(backend).map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+fn train(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
+    let config = load_config(inputs.config(id))?;
+    let device = device(backend)?.autodiff();
+    device.seed(0);
+    let mut model = DanceModel::new(&config.model, &device);
+    let params = model_params(&model);
+    let mut optim = adam(&config);
+    let spec = config.window_spec();
+    let d = config.layout().dim();
+    let b = sizes.batch;
+    let tensor = |shape: [usize; 3], seed| {
+        Tensor::<3>::from_data(
+            TensorData::new(filler(shape.iter().product(), seed), shape),
+            &device,
+        )
+    };
+    let steps = match id {
+        MeasureId::TrainMint => sizes.train_steps_mint,
+        _ => sizes.train_steps_tiny,
+    }
+    .max(1);
+    let mut times = Vec::new();
+    for k in 0..=steps {
+        let m = tensor([b, spec.motion_len, d], 1);
+        let a = tensor([b, spec.audio_len, AUDIO_DIM], 2);
+        let target = tensor([b, spec.target_len, d], 3);
+        let t = Instant::now();
+        let (next, loss) = update(model, &mut optim, m, a, target, 1e-4);
+        model = next;
+        anyhow::ensure!(loss.is_finite(), "the benchmark loss is not finite");
+        if k > 0 {
+            times.push(t.elapsed().as_secs_f64());
+        }
+    }
+    Ok(Entry::time(
+        id,
+        backend,
+        median(times),
+        "s per step",
+        format!(
+            "FACT {} ({params} parameters), batch {b}, forward + backward + Adam, median of {steps} after a warm-up",
+            id.size()
+        ),
+    ))
+}
+
+fn model_params(model: &DanceModel) -> usize {
+    use burn::module::Module;
+    model.num_params()
+}
+
+fn sampling(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
+    let config = load_config(inputs.config(id))?;
+    let device = device(backend)?;
+    device.seed(0);
+    let model = DanceModel::new(&config.model, &device);
+    let params = model_params(&model);
+    let spec = config.window_spec();
+    let layout = config.layout();
+    let frames = match id {
+        MeasureId::SampleMint => sizes.sample_frames_mint,
+        _ => sizes.sample_frames_tiny,
+    }
+    .max(1);
+    let requests: Vec<SampleRequest> = (0..sizes.sequences)
+        .map(|k| SampleRequest {
+            seed: filler(spec.motion_len * layout.dim(), 10 + k as u64),
+            audio: filler((spec.audio_len + frames) * AUDIO_DIM, 100 + k as u64),
+        })
+        .collect();
+    let opts = |frames| SampleOptions {
+        frames,
+        layout,
+        spec,
+        ..SampleOptions::default()
+    };
+    // Warm-up: one pass (allocator and thread pools), not timed.
+    if id == MeasureId::SampleTiny {
+        sample(&model, &device, &requests, &opts(1), |_, _| {});
+    }
+    let t = Instant::now();
+    let out = sample(&model, &device, &requests, &opts(frames), |_, _| {});
+    let seconds = t.elapsed().as_secs_f64();
+    anyhow::ensure!(
+        out.len() == sizes.sequences,
+        "sampler returned {} sequences",
+        out.len()
+    );
+    let fps = (sizes.sequences * frames) as f64 / seconds;
+    let full = (sizes.sequences * sizes.horizon) as f64 / fps;
+    Ok(Entry::rate(
+        id,
+        backend,
+        fps,
+        "frames/s",
+        format!(
+            "FACT {} ({params} parameters), {} sequences in one batch, {frames} frame(s) timed; {} × {} frames ≈ {}",
+            id.size(),
+            sizes.sequences,
+            sizes.sequences,
+            sizes.horizon,
+            super::report::duration_text(full)
+        ),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn filler_is_deterministic_and_bounded() {
+        let a = filler(1000, 3);
+        assert_eq!(a, filler(1000, 3));
+        assert_ne!(a, filler(1000, 4));
+        assert!(a.iter().all(|v| (-1.0..1.0).contains(v)));
+        let mean = a.iter().sum::<f32>() / 1000.0;
+        assert!(mean.abs() < 0.1, "{mean}");
+    }
+
+    #[test]
+    fn measure_names_round_trip() {
+        for m in MeasureId::ALL {
+            assert_eq!(MeasureId::parse(m.name()), Some(m));
+        }
+        assert_eq!(MeasureId::parse("nope"), None);
+    }
+}
