@@ -201,7 +201,12 @@ pub fn markdown(report: &BenchReport) -> String {
     }
     s.push('\n');
     for e in &report.entries {
-        s.push_str(&format!("- {}: {}", e.id.name(), e.detail));
+        let backend = if e.backend.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", e.backend)
+        };
+        s.push_str(&format!("- {}{backend}: {}.", e.id.name(), e.detail));
         if let Some(p) = &e.peer {
             s.push_str(&format!(" Peer: {}.", p.detail));
         }

@@ -12,8 +12,8 @@ use qean::bench::{self, BenchOptions, MeasureId, Peers};
 ///
 /// With --peers, each measure is repeated by its peer in bench/peer/ on the same inputs (librosa
 /// 0.8.1, Bailando's metric protocol in numpy, the same FACT in PyTorch) and the table shows the ratio.
-/// The full run takes about half an hour on 2 cores with peers (mint-size steps are minutes each);
-/// --quick (tiny model only, fewer repeats) takes about a minute without peers.
+/// On 2 cores the full run takes about 4 minutes, 7 with peers (mint-size steps take half a minute
+/// each); --quick (tiny model only, fewer repeats) takes about 15 seconds without peers.
 ///
 /// Examples:
 ///   qean bench --quick

@@ -10,7 +10,7 @@ use qean_train::ProgressMode;
 /// music includes two real recordings, the tiny FACT and tiny full-QEAN models trained on CPU, a
 /// 1200-frame dance for a held-out real song (Kevin MacLeod's "Vibe Ace", CC BY 3.0) with a preview,
 /// and both models scored (FID_k, FID_g, Dist_k, Dist_g, BeatAlign) next to chance baselines.
-/// About 15 minutes on 2 CPU cores (`--quick`: about 3). Run it again to reuse finished stages;
+/// About 6 minutes on 2 CPU cores (`--quick`: under a minute). Run it again to reuse finished stages;
 /// Ctrl-C stops training with a checkpoint and the next run continues.
 ///
 /// Example: qean demo --quick
@@ -19,7 +19,7 @@ pub struct DemoArgs {
     /// Output directory (default: qean-demo, or qean-demo-quick with --quick).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// A smaller, shorter demo (about 3 minutes).
+    /// A smaller, shorter demo (under a minute).
     #[arg(long)]
     pub quick: bool,
     /// Plain progress lines instead of bars.
