@@ -19,6 +19,8 @@ import torch
 from torch import nn
 import torch.nn.functional as F
 
+from rss import peak_rss_mb, reset_peak_rss
+
 SIZES = {
     # hidden, heads, ffn, motion layers, audio layers, cross layers
     "mint": (800, 10, 3072, 2, 2, 12),
@@ -76,22 +78,6 @@ class Fact(nn.Module):
         for i, blk in enumerate(self.cross):
             x = blk(x, first_only=first_only and i == len(self.cross) - 1)
         return self.output(x)
-
-
-def peak_rss_mb():
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) / 1024.0
-    return float("nan")
-
-
-def reset_peak_rss():
-    try:
-        with open("/proc/self/clear_refs", "w") as f:
-            f.write("5")
-    except OSError:
-        pass
 
 
 def main():

@@ -15,35 +15,16 @@ import json
 import statistics
 import sys
 import time
+from pathlib import Path
 
-import numpy as np
 import librosa
 
-SR = 30720
-HOP = 512
+from rss import peak_rss_mb, reset_peak_rss
 
-
-def features(y, start_bpm=120.0):
-    env = librosa.onset.onset_strength(y, sr=SR)
-    mfcc = librosa.feature.mfcc(y, sr=SR, n_mfcc=20).T
-    chroma = librosa.feature.chroma_cens(y, sr=SR, hop_length=HOP, n_chroma=12).T
-    peaks = librosa.onset.onset_detect(onset_envelope=env.flatten(), sr=SR, hop_length=HOP)
-    peak_onehot = np.zeros_like(env, dtype=np.float32)
-    peak_onehot[peaks] = 1.0
-    tempo, beats = librosa.beat.beat_track(
-        onset_envelope=env, sr=SR, hop_length=HOP, start_bpm=start_bpm, tightness=100
-    )
-    beat_onehot = np.zeros_like(env, dtype=np.float32)
-    beat_onehot[beats] = 1.0
-    return np.concatenate([env[:, None], mfcc, chroma, peak_onehot[:, None], beat_onehot[:, None]], axis=-1)
-
-
-def peak_rss_mb():
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) / 1024.0
-    return float("nan")
+# The feature itself is the fixture generator's (mint's cache_audio_features), so the peer times exactly
+# what the parity fixtures compare against.
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
+from make_audio_fixtures import SR, features  # noqa: E402
 
 
 def main():
@@ -53,19 +34,15 @@ def main():
     args = ap.parse_args()
     # Warm-up: numba JIT of resampy and librosa's jitted helpers.
     y, _ = librosa.load(args.path, sr=SR, duration=1.0)
-    features(y)
-    try:
-        with open("/proc/self/clear_refs", "w") as f:
-            f.write("5")
-    except OSError:
-        pass
+    features(y, 120.0)
+    reset_peak_rss()
     loads, feats = [], []
     cpu0 = time.process_time()
     for _ in range(args.repeats):
         t0 = time.perf_counter()
         y, _ = librosa.load(args.path, sr=SR)
         t1 = time.perf_counter()
-        f = features(y)
+        f = features(y, 120.0)[0]
         t2 = time.perf_counter()
         loads.append(t1 - t0)
         feats.append(t2 - t1)

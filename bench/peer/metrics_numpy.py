@@ -25,6 +25,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
 import crosscheck_metrics as ref  # noqa: E402
+from rss import peak_rss_mb  # noqa: E402
 
 SEED, LENGTH = 120, 1200
 
@@ -35,14 +36,6 @@ def joints(seq):
     wave = np.array(seq["wave"])  # [24, 3, 3]: amplitude, frequency, phase
     amp, freq, phase = wave[..., 0], wave[..., 1], wave[..., 2]
     return base[None] + amp[None] * np.sin(2 * np.pi * freq[None] * t[:, None, None] + phase[None])
-
-
-def peak_rss_mb():
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) / 1024.0
-    return float("nan")
 
 
 def evaluate(gens, refs, beats):

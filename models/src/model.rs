@@ -157,21 +157,7 @@ mod tests {
         assert_eq!(shorten_lists("no list [", 2), "no list [");
     }
 
-    fn tiny(arch: Arch) -> ModelConfig {
-        ModelConfig {
-            arch,
-            hidden: 16,
-            heads: 4,
-            ffn: 32,
-            motion_layers: 1,
-            audio_layers: 1,
-            cross_layers: 2,
-            motion_len: 6,
-            audio_len: 10,
-            target_len: 3,
-            ..ModelConfig::default()
-        }
-    }
+    use crate::testing::micro_config as tiny;
 
     fn inputs(c: &ModelConfig, device: &Device) -> (Tensor<3>, Tensor<3>) {
         (

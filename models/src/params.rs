@@ -196,17 +196,8 @@ mod tests {
 
     fn tiny(arch: Arch) -> ModelConfig {
         ModelConfig {
-            arch,
-            hidden: 16,
-            heads: 4,
-            ffn: 32,
-            motion_layers: 1,
-            audio_layers: 1,
             cross_layers: 1,
-            motion_len: 6,
-            audio_len: 10,
-            target_len: 3,
-            ..ModelConfig::default()
+            ..crate::testing::micro_config(arch)
         }
     }
 

@@ -68,20 +68,12 @@ mod tests {
 
     fn tiny() -> ModelConfig {
         ModelConfig {
-            arch: Arch::Qean,
-            hidden: 16,
             heads: 2,
-            ffn: 32,
-            motion_layers: 1,
-            audio_layers: 1,
             cross_layers: 1,
-            motion_len: 6,
-            audio_len: 10,
-            target_len: 3,
             position: PositionKind::Rotary,
             attention: AttentionKind::Qra,
             dropout: 0.1,
-            ..ModelConfig::default()
+            ..crate::testing::micro_config(Arch::Qean)
         }
     }
 

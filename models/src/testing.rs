@@ -2,6 +2,8 @@
 //! `from_data` take the device's default F32 unless the creation options name F64).
 
 use burn::module::{Module, ModuleMapper, Param};
+
+use crate::config::{Arch, ModelConfig};
 use burn::tensor::{DType, Device, Distribution, Tensor, TensorCreationOptions, TensorData};
 
 /// Creation options for f64 tensors on `device`.
@@ -48,4 +50,22 @@ impl ModuleMapper for CastF64 {
 /// The module with every float parameter cast to f64.
 pub fn to_f64<M: Module>(module: M) -> M {
     module.map(&mut CastF64)
+}
+
+/// A model small enough for unit tests: width 16, 4 heads, MLP 32, layers 1-1-2, windows 6/10, 3
+/// supervised frames; every other field at its default (mint's FACT, or QEAN with every switch off).
+pub fn micro_config(arch: Arch) -> ModelConfig {
+    ModelConfig {
+        arch,
+        hidden: 16,
+        heads: 4,
+        ffn: 32,
+        motion_layers: 1,
+        audio_layers: 1,
+        cross_layers: 2,
+        motion_len: 6,
+        audio_len: 10,
+        target_len: 3,
+        ..ModelConfig::default()
+    }
 }

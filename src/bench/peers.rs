@@ -41,6 +41,21 @@ impl Peers {
     /// The command that measures `id`'s peer.
     pub fn command(&self, id: MeasureId, inputs: &Inputs, sizes: &Sizes) -> PeerCommand {
         let script = |name: &str| self.script_dir.join(name).display().to_string();
+        // fact_torch.py --size S --what W, then (flag, count) pairs.
+        let torch = |id: MeasureId, what: &str, counts: &[(&str, usize)]| -> Vec<String> {
+            let mut args = vec![
+                script("fact_torch.py"),
+                "--size".into(),
+                id.size().into(),
+                "--what".into(),
+                what.into(),
+            ];
+            for (flag, n) in counts {
+                args.push(flag.to_string());
+                args.push(n.to_string());
+            }
+            args
+        };
         let (program, args) = match id {
             MeasureId::Features => (
                 &self.librosa_python,
@@ -58,46 +73,25 @@ impl Peers {
                     inputs.set_json.display().to_string(),
                 ],
             ),
-            MeasureId::TrainTiny | MeasureId::TrainMint => (
-                &self.torch_python,
-                vec![
-                    script("fact_torch.py"),
-                    "--size".into(),
-                    id.size().into(),
-                    "--what".into(),
-                    "train".into(),
-                    "--batch".into(),
-                    sizes.batch.to_string(),
-                    "--steps".into(),
-                    if id == MeasureId::TrainMint {
-                        sizes.train_steps_mint
-                    } else {
-                        sizes.train_steps_tiny
-                    }
-                    .max(1)
-                    .to_string(),
-                ],
-            ),
-            MeasureId::SampleTiny | MeasureId::SampleMint => (
-                &self.torch_python,
-                vec![
-                    script("fact_torch.py"),
-                    "--size".into(),
-                    id.size().into(),
-                    "--what".into(),
-                    "sample".into(),
-                    "--sequences".into(),
-                    sizes.sequences.to_string(),
-                    "--frames".into(),
-                    if id == MeasureId::SampleMint {
-                        sizes.sample_frames_mint
-                    } else {
-                        sizes.sample_frames_tiny
-                    }
-                    .max(1)
-                    .to_string(),
-                ],
-            ),
+            MeasureId::TrainTiny | MeasureId::TrainMint => {
+                let steps = match id {
+                    MeasureId::TrainMint => sizes.train_steps_mint,
+                    _ => sizes.train_steps_tiny,
+                };
+                let batch = [("--batch", sizes.batch), ("--steps", steps.max(1))];
+                (&self.torch_python, torch(id, "train", &batch))
+            }
+            MeasureId::SampleTiny | MeasureId::SampleMint => {
+                let frames = match id {
+                    MeasureId::SampleMint => sizes.sample_frames_mint,
+                    _ => sizes.sample_frames_tiny,
+                };
+                let counts = [
+                    ("--sequences", sizes.sequences),
+                    ("--frames", frames.max(1)),
+                ];
+                (&self.torch_python, torch(id, "sample", &counts))
+            }
         };
         PeerCommand {
             program: program.clone(),

@@ -183,7 +183,7 @@ fn resampy_impl(
     }
 
     // Products in resampy's accumulation order (left wing i = 0.., then right wing k = 0..); the sum is
-    // then rounded to f32 after every addition. Eight outputs are accumulated in lockstep so the serial
+    // then rounded to f32 after every addition. 32 outputs are accumulated in lockstep so the serial
     // rounding chains overlap; each output's own order is unchanged, so the result is identical.
     // Polyphase layout: row o holds (win, delta)[o + i·step] for i = 0.., so each wing reads contiguously.
     let row = nwin / index_step + 1;
@@ -198,7 +198,7 @@ fn resampy_impl(
     }
     // The two wings of output at `time_register`: (table row start, eta, taps) for the left wing (read
     // backwards from x[n]) and the right wing (forwards from x[n + 1]), exactly as resampy bounds them.
-    const G: usize = 8;
+    const G: usize = 32;
     let wings = |time_register: f64| {
         let n = time_register as usize;
         let frac = scale * (time_register - n as f64);
