@@ -154,6 +154,8 @@ pub fn ensure(
     mut compute: impl FnMut(&Path, &str) -> Result<MusicFeatures>,
     mut progress: impl FnMut(usize, usize, &str),
 ) -> Result<usize> {
+    // A cache run killed mid-write leaves its temporary behind; it is never read, but clear it.
+    crate::fsutil::clean_stale_temporaries(&dataset.features_dir())?;
     let mut computed = 0;
     for (k, id) in music_ids.iter().enumerate() {
         let audio = dataset.audio_path(id);

@@ -31,6 +31,54 @@ pub fn temp_sibling(path: &Path) -> PathBuf {
     path.with_file_name(unique)
 }
 
+/// The writer's process id in a [`temp_sibling`] name (`.NAME.PID.NANOS.tmp`).
+fn temp_owner(name: &str) -> Option<u32> {
+    let inner = name.strip_prefix('.')?.strip_suffix(".tmp")?;
+    let mut fields = inner.rsplitn(3, '.');
+    let _nanos = fields.next()?;
+    fields.next()?.parse().ok()
+}
+
+/// Whether process `pid` is alive (Linux: /proc; elsewhere every process counts as alive, so
+/// nothing is removed).
+fn process_alive(pid: u32) -> bool {
+    if pid == std::process::id() {
+        return true;
+    }
+    if !Path::new("/proc/self").exists() {
+        return true;
+    }
+    Path::new("/proc").join(pid.to_string()).exists()
+}
+
+/// Remove the temporaries that killed writers left in `dir` ([`temp_sibling`] names whose process
+/// is gone); a live writer's temporary is left alone. Returns how many were removed.
+pub fn clean_stale_temporaries(dir: &Path) -> Result<usize> {
+    if !dir.is_dir() {
+        return Ok(0);
+    }
+    let mut n = 0;
+    for e in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+        let e = e.map_err(|e| Error::io(dir, e))?;
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = temp_owner(&name) else {
+            continue;
+        };
+        if process_alive(pid) {
+            continue;
+        }
+        let p = e.path();
+        let r = if p.is_dir() {
+            std::fs::remove_dir_all(&p)
+        } else {
+            std::fs::remove_file(&p)
+        };
+        r.map_err(|err| Error::io(&p, err))?;
+        n += 1;
+    }
+    Ok(n)
+}
+
 /// Write `bytes` to `path` atomically. The parent directory must exist.
 pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
     let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
@@ -85,6 +133,30 @@ pub fn atomic_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn stale_temporaries_of_dead_writers_are_removed_live_ones_kept() {
+        let d = tempfile::tempdir().unwrap();
+        let mine = temp_sibling(&d.path().join("a.npy"));
+        std::fs::write(&mine, b"being written").unwrap();
+        // No process has id 4294967295 (Linux caps pids far below it).
+        let dead = d.path().join(".b.npy.4294967295.123.tmp");
+        std::fs::write(&dead, b"half").unwrap();
+        let dead_dir = d.path().join(".step-3.4294967295.9.tmp");
+        std::fs::create_dir(&dead_dir).unwrap();
+        std::fs::write(d.path().join("c.npy"), b"whole").unwrap();
+        std::fs::write(d.path().join(".hidden"), b"not ours").unwrap();
+        let removed = clean_stale_temporaries(d.path()).unwrap();
+        if Path::new("/proc/self").exists() {
+            assert_eq!(removed, 2);
+            assert!(!dead.exists() && !dead_dir.exists());
+        }
+        assert!(mine.exists());
+        assert!(d.path().join("c.npy").exists() && d.path().join(".hidden").exists());
+        assert_eq!(temp_owner(".x.npy.42.7.tmp"), Some(42));
+        assert_eq!(temp_owner(".x.npy.tmp"), None);
+        assert_eq!(clean_stale_temporaries(&d.path().join("none")).unwrap(), 0);
+    }
 
     #[test]
     fn atomic_dir_leaves_nothing_on_failure() {

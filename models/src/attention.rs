@@ -85,9 +85,10 @@ pub fn merge_heads(x: Tensor<4>) -> Tensor<3> {
     x.swap_dims(1, 2).reshape([b, n, h * d])
 }
 
-/// softmax(q·kᵀ·scale)·v per head, with dropout on the probabilities. Where no dropout can apply
-/// (a plain device, or probability 0) this is the backend's fused attention, which on flex never
-/// materialises the score matrix (under autodiff Burn runs the same ops as below).
+/// softmax(q·kᵀ·scale)·v per head, with dropout on the probabilities. On flex, where no dropout can
+/// apply (a plain device, or probability 0), this is flex's fused attention, which never
+/// materialises the score matrix (under autodiff Burn runs the same ops as below). Other backends
+/// keep the explicit ops, which the wgpu parity test covers.
 pub fn attend(
     q: Tensor<4>,
     k: Tensor<4>,
@@ -95,7 +96,8 @@ pub fn attend(
     scale: f64,
     dropout: &Dropout,
 ) -> Tensor<4> {
-    if dropout.prob == 0.0 || !q.device().is_autodiff() {
+    let device = q.device();
+    if (dropout.prob == 0.0 || !device.is_autodiff()) && device == Device::flex() {
         let options = AttentionModuleOptions {
             scale: Some(scale),
             softcap: None,

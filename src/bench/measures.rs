@@ -70,8 +70,11 @@ impl MeasureId {
 /// Sizes and repeat counts.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Sizes {
-    /// Length of the feature track (seconds).
+    /// Length of the feature track (seconds) and its sample rate (the embedded song is resampled to
+    /// it: 44.1 kHz, the rate of most music files, makes librosa.load downsample as it usually does).
     pub track_seconds: f64,
+    #[serde(default = "default_track_rate")]
+    pub track_rate: u32,
     pub feature_repeats: usize,
     /// Generated sequences, their frames (seed + generated), reference sequences.
     pub generated: usize,
@@ -94,6 +97,7 @@ impl Sizes {
     pub fn new(quick: bool) -> Sizes {
         Sizes {
             track_seconds: 60.0,
+            track_rate: default_track_rate(),
             feature_repeats: if quick { 1 } else { 3 },
             generated: 40,
             generated_frames: 1320,
@@ -110,10 +114,14 @@ impl Sizes {
     }
 }
 
+fn default_track_rate() -> u32 {
+    44_100
+}
+
 /// Inputs shared by our measures and the peers'.
 pub struct Inputs {
     pub dir: PathBuf,
-    /// The 60 s track (16-bit WAV at the source's rate).
+    /// The 60 s track (16-bit WAV at `Sizes::track_rate`).
     pub track: PathBuf,
     /// The synthetic metric set and its description for the peer.
     pub set: SyntheticSet,
@@ -128,17 +136,23 @@ impl Inputs {
         crate::demo::write_assets(dir)?;
         let source = dir.join("assets/music/Kevin_MacLeod_-_Vibe_Ace.ogg");
         let decoded = qean_data::audio::decode::decode_file(&source, 3600.0)?;
-        let want = (sizes.track_seconds * decoded.rate as f64).round() as usize;
+        let song: Vec<f64> = decoded.samples.iter().map(|&v| v as f64).collect();
+        let song = qean_data::audio::resample::resample_with(
+            &song,
+            decoded.rate as f64,
+            sizes.track_rate as f64,
+            qean_data::audio::Resampler::KaiserFast,
+            false,
+            false,
+        )?;
         // Loop the song if it is shorter than the track.
-        let samples: Vec<f64> = decoded
-            .samples
-            .iter()
-            .cycle()
-            .take(want)
-            .map(|&v| v as f64)
-            .collect();
-        let track = dir.join(format!("track-{}s.wav", sizes.track_seconds));
-        qean_data::wav::write_pcm16(&track, &samples, decoded.rate)?;
+        let want = (sizes.track_seconds * sizes.track_rate as f64).round() as usize;
+        let samples: Vec<f64> = song.iter().cycle().take(want).copied().collect();
+        let track = dir.join(format!(
+            "track-{}s-{}hz.wav",
+            sizes.track_seconds, sizes.track_rate
+        ));
+        qean_data::wav::write_pcm16(&track, &samples, sizes.track_rate)?;
 
         let set =
             SyntheticSet::aist_sized(7, sizes.generated, sizes.generated_frames, sizes.reference);
@@ -230,8 +244,9 @@ fn features(inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
         median(times),
         "s per track",
         format!(
-            "{} s track, decode + resample + 35-D features, median of {}",
+            "{} s track at {} Hz, decode + resample + 35-D features, median of {}",
             sizes.track_seconds,
+            sizes.track_rate,
             sizes.feature_repeats.max(1)
         ),
     ))
