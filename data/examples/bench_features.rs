@@ -42,6 +42,15 @@ fn stages(path: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
     let x: Vec<f64> = d.samples.iter().map(|&v| v as f64).collect();
     let y = audio::resample::resample(&x, d.rate as f64, 30720.0, Default::default(), false)?;
     lap("resample (kaiser_best)");
+    let _ = audio::resample::resample_with(
+        &x,
+        d.rate as f64,
+        30720.0,
+        Default::default(),
+        false,
+        false,
+    )?;
+    lap("(resample, f64 sums)");
     let sr = 30720.0;
     let power = stft::power_spectrogram(&y, 2048, 512);
     lap("stft power");

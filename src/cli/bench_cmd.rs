@@ -18,8 +18,9 @@ use qean::bench::{self, BenchOptions, MeasureId, Peers};
 /// Examples:
 ///   qean bench --quick
 ///   qean bench --only train-tiny,sample-tiny --backends flex,ndarray
-///   qean bench --peers --torch-python venv/bin/python --librosa-python venv-librosa/bin/python --json bench.json
+///   qean bench --peers --torch-python torch/bin/python --librosa-python lr/bin/python --json b.json
 #[derive(Args, Debug)]
+#[command(verbatim_doc_comment)]
 pub struct BenchArgs {
     /// Only the tiny model, fewer repeats.
     #[arg(long)]

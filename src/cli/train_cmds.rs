@@ -20,6 +20,7 @@ use qean_train::{sweep, ProgressMode, RunConfig, Start, TrainOptions};
 ///   qean train --config configs/tiny/full.toml --data synth --run-dir runs/full
 ///   qean train --resume runs/full --set train.steps=4000
 #[derive(Args, Debug)]
+#[command(verbatim_doc_comment)]
 pub struct TrainArgs {
     /// Run config (TOML; see configs/README.md). Optional with --resume (R/config.toml is used).
     #[arg(long, required_unless_present = "resume")]
