@@ -101,6 +101,15 @@ pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// Remove `dir` so that no half-deleted copy is ever visible under its name: rename it to a
+/// temporary sibling first (one atomic step), then delete that. A kill during the deletion leaves
+/// only the temporary, which [`clean_stale_temporaries`] (or a run directory's own cleaner) removes.
+pub fn atomic_remove_dir(dir: &Path) -> Result<()> {
+    let tmp = temp_sibling(dir);
+    std::fs::rename(dir, &tmp).map_err(|e| Error::io(dir, e))?;
+    std::fs::remove_dir_all(&tmp).map_err(|e| Error::io(&tmp, e))
+}
+
 /// Create `dir` by building it under a temporary name with `fill`, then renaming it into place.
 /// If `fill` fails, nothing is left behind. `dir` must not exist yet.
 pub fn atomic_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
@@ -133,6 +142,19 @@ pub fn atomic_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn atomic_remove_leaves_nothing_under_the_name() {
+        let d = tempfile::tempdir().unwrap();
+        let dir = d.path().join("step-3");
+        std::fs::create_dir(&dir).unwrap();
+        std::fs::write(dir.join("model.bpk"), b"w").unwrap();
+        atomic_remove_dir(&dir).unwrap();
+        assert!(!dir.exists());
+        assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
+        let e = atomic_remove_dir(&dir).unwrap_err().to_string();
+        assert!(e.contains("step-3"), "{e}");
+    }
 
     #[test]
     fn stale_temporaries_of_dead_writers_are_removed_live_ones_kept() {

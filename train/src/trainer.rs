@@ -424,7 +424,8 @@ impl Session {
             .collect();
         for step in run_dir::to_prune(&with_val, self.config.train.keep_last) {
             if let Some((_, dir)) = list.iter().find(|(s, _)| *s == step) {
-                std::fs::remove_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+                // Renamed away first: a kill mid-deletion must not leave a half checkpoint.
+                qean_data::fsutil::atomic_remove_dir(dir)?;
                 tracing::info!("pruned {}", dir.display());
             }
         }
@@ -532,7 +533,7 @@ fn train_locked(mut config: RunConfig, opts: &TrainOptions) -> Result<TrainOutco
                     dir.display(),
                     ck.state.step
                 );
-                std::fs::remove_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+                qean_data::fsutil::atomic_remove_dir(dir)?;
             }
         }
     }
