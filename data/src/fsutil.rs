@@ -54,17 +54,26 @@ fn process_alive(pid: u32) -> bool {
 /// Remove the temporaries that killed writers left in `dir` ([`temp_sibling`] names whose process
 /// is gone); a live writer's temporary is left alone. Returns how many were removed.
 pub fn clean_stale_temporaries(dir: &Path) -> Result<usize> {
+    remove_temporaries(dir, |name| {
+        temp_owner(name).is_some_and(|pid| !process_alive(pid))
+    })
+}
+
+/// Remove every temporary (`.NAME….tmp`) in `dir`, whoever wrote it: for a directory this process
+/// holds locked, where no other writer can be at work. Returns how many were removed.
+pub fn clean_all_temporaries(dir: &Path) -> Result<usize> {
+    remove_temporaries(dir, |name| name.starts_with('.') && name.ends_with(".tmp"))
+}
+
+/// Remove the files and directories in `dir` whose names `pick` accepts (none if `dir` is missing).
+fn remove_temporaries(dir: &Path, pick: impl Fn(&str) -> bool) -> Result<usize> {
     if !dir.is_dir() {
         return Ok(0);
     }
     let mut n = 0;
     for e in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
         let e = e.map_err(|e| Error::io(dir, e))?;
-        let name = e.file_name().to_string_lossy().into_owned();
-        let Some(pid) = temp_owner(&name) else {
-            continue;
-        };
-        if process_alive(pid) {
+        if !pick(&e.file_name().to_string_lossy()) {
             continue;
         }
         let p = e.path();

@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use burn::module::Module;
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_data::audio::{features_for_file, FeatureOptions};
 use qean_data::autoregress::{SampleOptions, SampleRequest};
@@ -132,7 +133,30 @@ pub struct Inputs {
 }
 
 impl Inputs {
+    /// The inputs under `dir`, as [`Inputs::prepare`] wrote them (the metric set is rebuilt from
+    /// its seed in memory: cheaper than parsing its JSON). Reads and writes nothing.
+    pub fn open(dir: &Path, sizes: &Sizes) -> Inputs {
+        Inputs {
+            dir: dir.to_path_buf(),
+            track: dir.join(format!(
+                "track-{}s-{}hz.wav",
+                sizes.track_seconds, sizes.track_rate
+            )),
+            set: SyntheticSet::aist_sized(
+                7,
+                sizes.generated,
+                sizes.generated_frames,
+                sizes.reference,
+            ),
+            set_json: dir.join("metric-set.json"),
+            tiny_config: dir.join("configs/tiny/fact.toml"),
+            mint_config: dir.join("configs/fact.toml"),
+        }
+    }
+
+    /// Writes the inputs under `dir`: the embedded configs and music, the track, the set's JSON.
     pub fn prepare(dir: &Path, sizes: &Sizes) -> anyhow::Result<Inputs> {
+        let inputs = Inputs::open(dir, sizes);
         crate::demo::write_assets(dir)?;
         let source = dir.join("assets/music/Kevin_MacLeod_-_Vibe_Ace.ogg");
         let decoded = qean_data::audio::decode::decode_file(&source, 3600.0)?;
@@ -148,24 +172,12 @@ impl Inputs {
         // Loop the song if it is shorter than the track.
         let want = (sizes.track_seconds * sizes.track_rate as f64).round() as usize;
         let samples: Vec<f64> = song.iter().cycle().take(want).copied().collect();
-        let track = dir.join(format!(
-            "track-{}s-{}hz.wav",
-            sizes.track_seconds, sizes.track_rate
-        ));
-        qean_data::wav::write_pcm16(&track, &samples, sizes.track_rate)?;
-
-        let set =
-            SyntheticSet::aist_sized(7, sizes.generated, sizes.generated_frames, sizes.reference);
-        let set_json = dir.join("metric-set.json");
-        qean_data::fsutil::atomic_write(&set_json, serde_json::to_string(&set)?.as_bytes())?;
-        Ok(Inputs {
-            dir: dir.to_path_buf(),
-            track,
-            set,
-            set_json,
-            tiny_config: dir.join("configs/tiny/fact.toml"),
-            mint_config: dir.join("configs/fact.toml"),
-        })
+        qean_data::wav::write_pcm16(&inputs.track, &samples, sizes.track_rate)?;
+        qean_data::fsutil::atomic_write(
+            &inputs.set_json,
+            serde_json::to_string(&inputs.set)?.as_bytes(),
+        )?;
+        Ok(inputs)
     }
 
     pub fn config(&self, id: MeasureId) -> &Path {
@@ -296,7 +308,7 @@ fn train(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow
     let device = device(backend)?.autodiff();
     device.seed(0);
     let mut model = DanceModel::new(&config.model, &device);
-    let params = model_params(&model);
+    let params = model.num_params();
     let mut optim = adam(&config);
     let spec = config.window_spec();
     let d = config.layout().dim();
@@ -337,17 +349,12 @@ fn train(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow
     ))
 }
 
-fn model_params(model: &DanceModel) -> usize {
-    use burn::module::Module;
-    model.num_params()
-}
-
 fn sampling(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
     let config = load_config(inputs.config(id))?;
     let device = device(backend)?;
     device.seed(0);
     let model = DanceModel::new(&config.model, &device);
-    let params = model_params(&model);
+    let params = model.num_params();
     let spec = config.window_spec();
     let layout = config.layout();
     let frames = match id {

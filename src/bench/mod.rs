@@ -164,7 +164,8 @@ pub fn run_child_measure(
     let text = std::fs::read_to_string(&sizes_path)
         .map_err(|e| anyhow::anyhow!("{}: {e}", sizes_path.display()))?;
     let sizes: Sizes = serde_json::from_str(&text)?;
-    let inputs = measures::Inputs::prepare(work_dir, &sizes)?;
+    // The parent prepared them; the child only needs their paths and the set.
+    let inputs = measures::Inputs::open(work_dir, &sizes);
     let entry = run_measure(id, backend, &inputs, &sizes)?;
     Ok(serde_json::to_string(&entry)?)
 }

@@ -95,25 +95,10 @@ pub fn list_checkpoints(run_dir: &Path) -> Result<Vec<(u64, PathBuf)>> {
 pub fn clean_temporaries(run_dir: &Path) -> Result<usize> {
     // Temporaries of atomic writes live beside their target: checkpoint directories in checkpoints/,
     // metrics.csv, loss.png and config.toml in the run directory itself.
+    // The run is locked by this process, so every temporary there is a killed writer's.
     let mut n = 0;
     for dir in [run_dir.join(CHECKPOINTS), run_dir.to_path_buf()] {
-        if !dir.is_dir() {
-            continue;
-        }
-        for e in std::fs::read_dir(&dir).map_err(|e| Error::io(&dir, e))? {
-            let e = e.map_err(|e| Error::io(&dir, e))?;
-            let name = e.file_name().to_string_lossy().into_owned();
-            if name.starts_with('.') && name.ends_with(".tmp") {
-                let p = e.path();
-                let r = if p.is_dir() {
-                    std::fs::remove_dir_all(&p)
-                } else {
-                    std::fs::remove_file(&p)
-                };
-                r.map_err(|err| Error::io(&p, err))?;
-                n += 1;
-            }
-        }
+        n += qean_data::fsutil::clean_all_temporaries(&dir)?;
     }
     Ok(n)
 }
