@@ -67,7 +67,9 @@ struct Pass {
 }
 
 fn run(config: &ModelConfig, weights: &Path, device: &Device) -> Pass {
-    let model: DanceModel = config.init(device).load_weights(weights).unwrap();
+    let model = DanceModel::new(config, device)
+        .load_weights(weights)
+        .unwrap();
     let (motion, audio, target) = inputs(config, 2, device);
     let out = model.forward_with_penalty(motion, audio);
     let mut loss = motion_loss(out.prediction.clone(), target);
@@ -119,8 +121,7 @@ fn every_tiny_variant_matches_between_flex_and_wgpu() {
         config.target_len = 4;
         let cpu = Device::flex();
         cpu.seed(11);
-        let weights = config
-            .init(&cpu)
+        let weights = DanceModel::new(&config, &cpu)
             .save_weights(&dir.path().join(name.replace(".toml", "")))
             .unwrap();
         let start = std::time::Instant::now();

@@ -17,10 +17,57 @@ const BW_FASTEST: f64 = 0.85;
 /// C1 in Hz (librosa `note_to_hz('C1')`).
 pub const C1_HZ: f64 = 32.70319566257483;
 
-/// One octave's filters in the frequency domain, sparsified: per filter, (bin, weight) pairs.
+/// One octave's filters in the frequency domain, sparsified: per filter, the bins from its first to its
+/// last kept one (dropped bins inside that span hold 0, which adds nothing), real and imaginary parts
+/// apart so the products vectorise.
 struct OctaveBasis {
     n_fft: usize,
-    rows: Vec<Vec<(usize, Complex64)>>,
+    rows: Vec<BasisRow>,
+}
+
+struct BasisRow {
+    first_bin: usize,
+    re: Vec<f64>,
+    im: Vec<f64>,
+}
+
+impl BasisRow {
+    fn new(kept: &[(usize, Complex64)]) -> Self {
+        let first_bin = kept.first().map_or(0, |&(i, _)| i);
+        let len = kept.last().map_or(0, |&(i, _)| i + 1 - first_bin);
+        let (mut re, mut im) = (vec![0.0; len], vec![0.0; len]);
+        for &(i, c) in kept {
+            re[i - first_bin] = c.re;
+            im[i - first_bin] = c.im;
+        }
+        BasisRow { first_bin, re, im }
+    }
+
+    /// |Σ basis[i]·spectrum[i]|, the spectrum split into real and imaginary parts.
+    fn magnitude(&self, spec_re: &[f64], spec_im: &[f64]) -> f64 {
+        let n = self.re.len();
+        let (sr, si) = (
+            &spec_re[self.first_bin..self.first_bin + n],
+            &spec_im[self.first_bin..self.first_bin + n],
+        );
+        let mut acc_re = [0.0f64; 4];
+        let mut acc_im = [0.0f64; 4];
+        let chunks = n / 4 * 4;
+        for j in (0..chunks).step_by(4) {
+            for l in 0..4 {
+                let (wr, wi, xr, xi) = (self.re[j + l], self.im[j + l], sr[j + l], si[j + l]);
+                acc_re[l] += wr * xr - wi * xi;
+                acc_im[l] += wr * xi + wi * xr;
+            }
+        }
+        let mut re = (acc_re[0] + acc_re[1]) + (acc_re[2] + acc_re[3]);
+        let mut im = (acc_im[0] + acc_im[1]) + (acc_im[2] + acc_im[3]);
+        for j in chunks..n {
+            re += self.re[j] * sr[j] - self.im[j] * si[j];
+            im += self.re[j] * si[j] + self.im[j] * sr[j];
+        }
+        (re * re + im * im).sqrt()
+    }
 }
 
 fn filter_lengths(sr: f64, fmin: f64, n_bins: usize, bins_per_octave: usize) -> Result<Vec<f64>> {
@@ -77,7 +124,7 @@ fn filter_fft(
         }
         fft.process(&mut buf);
         buf.truncate(n_fft / 2 + 1);
-        rows.push(sparsify(&buf, 0.01, gain));
+        rows.push(BasisRow::new(&sparsify(&buf, 0.01, gain)));
     }
     Ok(OctaveBasis { n_fft, rows })
 }
@@ -112,12 +159,10 @@ fn response(y: &[f64], hop: usize, basis: &OctaveBasis) -> Spectrogram {
     let n_rows = basis.rows.len();
     let ones = vec![1.0; basis.n_fft];
     let data = map_frames(y, basis.n_fft, hop, &ones, n_rows, |spec, out| {
+        let re: Vec<f64> = spec.iter().map(|c| c.re).collect();
+        let im: Vec<f64> = spec.iter().map(|c| c.im).collect();
         for (o, row) in out.iter_mut().zip(&basis.rows) {
-            let mut acc = Complex64::new(0.0, 0.0);
-            for &(i, w) in row {
-                acc += w * spec[i];
-            }
-            *o = acc.norm();
+            *o = row.magnitude(&re, &im);
         }
     });
     Spectrogram {

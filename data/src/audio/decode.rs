@@ -14,7 +14,7 @@ use symphonia::core::formats::{FormatOptions, TrackType};
 use symphonia::core::io::MediaSourceStream;
 use symphonia::core::meta::MetadataOptions;
 
-use super::resample::{resample, Resampler};
+use super::resample::{resample_f32, Resampler};
 use super::SR;
 use crate::error::{Error, Result};
 
@@ -318,10 +318,15 @@ fn decode_inner(path: &Path, max_seconds: f64) -> Result<Decoded> {
 pub fn load_audio(path: &Path, opts: &LoadOptions) -> Result<Audio> {
     let dec = decode_file(path, opts.max_seconds)?;
     let duration = dec.samples.len() as f64 / dec.rate as f64;
-    let x: Vec<f64> = dec.samples.iter().map(|&v| v as f64).collect();
-    drop(dec.samples);
-    let samples = resample(&x, dec.rate as f64, SR as f64, opts.resampler, false)
-        .map_err(|e| e.with_path(path))?;
+    let samples = resample_f32(
+        &dec.samples,
+        dec.rate as f64,
+        SR as f64,
+        opts.resampler,
+        false,
+        true,
+    )
+    .map_err(|e| e.with_path(path))?;
     Ok(Audio {
         samples,
         original_rate: dec.rate,
