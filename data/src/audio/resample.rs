@@ -374,12 +374,17 @@ impl Registers {
         let mut r = 0.0f64;
         for t in 0..n_out.min(MAX_PERIOD + 1) {
             if t > 0 && r.fract() == 0.0 {
-                let (period, stride) = (t, r);
+                let (period, stride) = (t, r as u64);
+                // (whole part, fraction) of each phase; registers are ≥ 0, so `as u64` is floor.
+                let parts: Vec<(u64, f64)> = first
+                    .iter()
+                    .map(|&f| (f as u64, f - (f as u64) as f64))
+                    .collect();
                 let mut r = 0.0f64;
                 let repeats = (0..n_out).all(|t| {
-                    let f: f64 = first[t % period];
-                    let same = r.floor() == f.floor() + (t / period) as f64 * stride
-                        && r - r.floor() == f - f.floor();
+                    let (whole, frac) = parts[t % period];
+                    let n = r as u64;
+                    let same = n == whole + (t / period) as u64 * stride && r - n as f64 == frac;
                     r += increment;
                     same
                 });

@@ -81,10 +81,23 @@ pub fn reflect_index(i: isize, n: usize) -> usize {
 pub fn reflect_pad(y: &[f64], pad: usize) -> Vec<f64> {
     let n = y.len();
     let mut out = Vec::with_capacity(n + 2 * pad);
-    for i in 0..n + 2 * pad {
-        out.push(y[reflect_index(i as isize - pad as isize, n)]);
-    }
+    out.extend((0..pad).map(|i| y[reflect_index(i as isize - pad as isize, n)]));
+    out.extend_from_slice(y);
+    out.extend((n + pad..n + 2 * pad).map(|i| y[reflect_index(i as isize - pad as isize, n)]));
     out
+}
+
+/// `out.len()` samples of `reflect_pad(y, pad)` from `start`, without building the padded signal: only
+/// frames that overlap an end look indices up.
+pub fn padded_frame(y: &[f64], start: usize, pad: usize, out: &mut [f64]) {
+    let n = y.len();
+    if start >= pad && start - pad + out.len() <= n {
+        out.copy_from_slice(&y[start - pad..start - pad + out.len()]);
+    } else {
+        for (j, o) in out.iter_mut().enumerate() {
+            *o = y[reflect_index((start + j) as isize - pad as isize, n)];
+        }
+    }
 }
 
 /// A planned real FFT of one size.
@@ -156,8 +169,7 @@ where
 {
     assert_eq!(window.len(), n_fft);
     assert!(!y.is_empty() && hop > 0);
-    let padded = reflect_pad(y, n_fft / 2);
-    let n_frames = 1 + (padded.len() - n_fft) / hop;
+    let n_frames = n_frames(y.len(), hop);
     let fft = Fft::new(n_fft);
     let mut out = vec![0.0; n_frames * row_len];
     out.par_chunks_mut(row_len * FRAMES_PER_TASK)
@@ -168,9 +180,9 @@ where
             let mut scratch = fft.scratch();
             for (i, row) in chunk.chunks_exact_mut(row_len).enumerate() {
                 let t = c * FRAMES_PER_TASK + i;
-                let frame = &padded[t * hop..t * hop + n_fft];
-                for ((b, &x), &w) in buf.iter_mut().zip(frame).zip(window) {
-                    *b = x * w;
+                padded_frame(y, t * hop, n_fft / 2, &mut buf);
+                for (b, &w) in buf.iter_mut().zip(window) {
+                    *b *= w;
                 }
                 fft.forward(&mut buf, &mut spec, &mut scratch);
                 f(&spec, row);
@@ -214,6 +226,16 @@ mod tests {
         let p = reflect_pad(&[1.0, 2.0, 3.0], 5);
         assert_eq!(p, vec![2., 1., 2., 3., 2., 1., 2., 3., 2., 1., 2., 3., 2.]);
         assert_eq!(reflect_pad(&[7.0], 2), vec![7.0; 5]);
+        // Frames cut from the virtual padding equal slices of the padded signal.
+        for (n, pad, len) in [(3usize, 5usize, 4usize), (50, 8, 16), (1, 2, 3), (40, 20, 40)] {
+            let y: Vec<f64> = (0..n).map(|i| i as f64 * 1.5 - 2.0).collect();
+            let p = reflect_pad(&y, pad);
+            for start in 0..=p.len() - len {
+                let mut out = vec![0.0; len];
+                padded_frame(&y, start, pad, &mut out);
+                assert_eq!(out, &p[start..start + len], "n {n} pad {pad} start {start}");
+            }
+        }
     }
 
     #[test]
