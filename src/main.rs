@@ -27,6 +27,7 @@ fn keep_freed_memory() {
 
 fn main() {
     keep_freed_memory();
+    qean_models::backend::prefer_cpu_default_device();
     let args = cli::Cli::parse();
     cli::init_logging(args.verbose);
     match cli::run(args) {

@@ -23,6 +23,17 @@ pub fn device(name: &str) -> Result<Device, String> {
     }
 }
 
+/// Makes flex Burn's default device unless `BURN_DEVICE` names one. Burn puts some tensors on
+/// `Device::default()` before moving them where they belong (a loaded optimizer state waits there until
+/// the next step); in a build with the wgpu feature that default is the GPU, which would start, print
+/// driver messages and, on a machine without one, fail, even for a CPU run. Call it at the start of
+/// `main`, before any thread exists (it sets an environment variable).
+pub fn prefer_cpu_default_device() {
+    if std::env::var_os("BURN_DEVICE").is_none() {
+        std::env::set_var("BURN_DEVICE", DEFAULT_BACKEND);
+    }
+}
+
 #[cfg(not(feature = "wgpu"))]
 fn wgpu_device() -> Result<Device, String> {
     Err("backend `wgpu` is not in this build: rebuild with `--features wgpu`".into())

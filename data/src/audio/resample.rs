@@ -199,20 +199,26 @@ fn resampy_core(
             }
         }
     }
-    // The two wings of output at `time_register`: (table row start, eta, taps) for the left wing (read
-    // backwards from x[n]) and the right wing (forwards from x[n + 1]), exactly as resampy bounds them.
-    const G: usize = 32;
-    let wings = |time_register: f64| {
+    // Where output at `time_register` reads: n = floor(register), and for each wing the table offset and
+    // interpolation fraction eta (resampy's arithmetic, step by step).
+    let position = |time_register: f64| {
         let n = time_register as usize;
         let frac = scale * (time_register - n as f64);
         let index_frac = frac * num_table;
         let off_l = index_frac as usize;
         let eta_l = index_frac - off_l as f64;
-        let i_max = (n + 1).min((nwin - off_l) / index_step);
         let frac = scale - frac;
         let index_frac = frac * num_table;
         let off_r = index_frac as usize;
         let eta_r = index_frac - off_r as f64;
+        (n, (off_l, eta_l), (off_r, eta_r))
+    };
+    // The two wings: (table row, eta) for the left wing (read backwards from x[n]) and the right wing
+    // (forwards from x[n + 1]), with as many taps as resampy takes at this position.
+    const G: usize = 32;
+    let wings = |time_register: f64| {
+        let (n, (off_l, eta_l), (off_r, eta_r)) = position(time_register);
+        let i_max = (n + 1).min((nwin - off_l) / index_step);
         let k_max = (n_orig.saturating_sub(n + 1)).min((nwin - off_r) / index_step);
         (
             n,
@@ -291,29 +297,22 @@ fn resampy_core(
     out.resize(n_out, 0.0f64);
     let periodic = match &registers {
         Registers::Periodic { first, stride, .. } => {
-            let unclamped = |time_register: f64| {
-                let n = time_register as usize;
-                let frac = scale * (time_register - n as f64);
-                let index_frac = frac * num_table;
-                let off_l = index_frac as usize;
-                let eta_l = index_frac - off_l as f64;
-                let frac = scale - frac;
-                let index_frac = frac * num_table;
-                let off_r = index_frac as usize;
-                let eta_r = index_frac - off_r as f64;
-                let weights = |off: usize, eta: f64| -> Vec<f64> {
-                    poly[off * row..off * row + (nwin - off) / index_step]
-                        .iter()
-                        .map(|&(w, d)| w + eta * d)
-                        .collect()
-                };
-                (n, weights(off_l, eta_l), weights(off_r, eta_r))
+            // Every tap of a wing (no clipping at the signal's ends), interpolation applied.
+            let taps = |off: usize, eta: f64| -> Vec<f64> {
+                poly[off * row..off * row + (nwin - off) / index_step]
+                    .iter()
+                    .map(|&(w, d)| w + eta * d)
+                    .collect()
             };
             let phases: Vec<Phase> = first
                 .iter()
                 .map(|&r| {
-                    let (n, left, right) = unclamped(r);
-                    Phase { n, left, right }
+                    let (n, (off_l, eta_l), (off_r, eta_r)) = position(r);
+                    Phase {
+                        n,
+                        left: taps(off_l, eta_l),
+                        right: taps(off_r, eta_r),
+                    }
                 })
                 .collect();
             Periodic::new(phases, *stride, n_orig, &registers, n_out)

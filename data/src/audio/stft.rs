@@ -227,7 +227,12 @@ mod tests {
         assert_eq!(p, vec![2., 1., 2., 3., 2., 1., 2., 3., 2., 1., 2., 3., 2.]);
         assert_eq!(reflect_pad(&[7.0], 2), vec![7.0; 5]);
         // Frames cut from the virtual padding equal slices of the padded signal.
-        for (n, pad, len) in [(3usize, 5usize, 4usize), (50, 8, 16), (1, 2, 3), (40, 20, 40)] {
+        for (n, pad, len) in [
+            (3usize, 5usize, 4usize),
+            (50, 8, 16),
+            (1, 2, 3),
+            (40, 20, 40),
+        ] {
             let y: Vec<f64> = (0..n).map(|i| i as f64 * 1.5 - 2.0).collect();
             let p = reflect_pad(&y, pad);
             for start in 0..=p.len() - len {

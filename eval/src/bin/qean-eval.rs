@@ -17,6 +17,7 @@ struct Cli {
 }
 
 fn main() {
+    qean_models::backend::prefer_cpu_default_device();
     let cli = Cli::parse();
     qean_eval::cli::init_logging(cli.verbose);
     match qean_eval::cli::run(&cli.args) {
