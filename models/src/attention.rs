@@ -140,21 +140,8 @@ fn attend_block(
 ) -> Tensor<4> {
     // The scale goes on q ([N, d] per head) rather than on the [N, N] scores.
     let scores = q.mul_scalar(scale).matmul(k.swap_dims(2, 3));
-    let probs = dropout.forward(row_softmax(scores));
+    let probs = dropout.forward(softmax(scores, 3));
     probs.matmul(v)
-}
-
-/// Softmax over the last axis. Under autodiff it is built as exp(x − max)·(1/Σ): the gradient of a
-/// product with a per-row reciprocal costs two passes over the [N, N] block, Burn's division five (it
-/// forms −e/s² element by element). Elsewhere Burn's fused softmax.
-pub fn row_softmax(scores: Tensor<4>) -> Tensor<4> {
-    if !scores.device().is_autodiff() {
-        return softmax(scores, 3);
-    }
-    let max = scores.clone().detach().max_dim(3);
-    let e = (scores - max).exp();
-    let inv = e.clone().sum_dim(3).recip();
-    e * inv
 }
 
 impl Attention {

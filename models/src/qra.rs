@@ -19,10 +19,10 @@ use burn::config::Config;
 use burn::module::Module;
 use burn::nn::conv::{Conv1d, Conv1dConfig};
 use burn::nn::{Dropout, DropoutConfig, Initializer, Linear, PaddingConfig1d};
-use burn::tensor::activation::relu;
+use burn::tensor::activation::{relu, softmax};
 use burn::tensor::{Device, Tensor, TensorCreationOptions, TensorData};
 
-use crate::attention::{merge_heads, row_softmax, score_scale, split_heads};
+use crate::attention::{merge_heads, score_scale, split_heads};
 use crate::config::{AttnScale, QraConvInput, QraDk, QraQkProj};
 use crate::init::glorot_dense;
 use crate::quaternion_linear::{QuaternionLinear, QuaternionLinearConfig};
@@ -312,7 +312,7 @@ impl Qra {
         let qc = quaternion_copies(q, alpha, true, 1.0 / self.periods as f64);
         let kc = quaternion_copies(k, beta, false, 1.0);
         let scores = qc.matmul(kc.swap_dims(2, 3)).mul_scalar(self.scale);
-        let probs = self.dropout.forward(row_softmax(scores));
+        let probs = self.dropout.forward(softmax(scores, 3));
         (probs, v, fq, fk)
     }
 
