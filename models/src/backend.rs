@@ -50,7 +50,7 @@ fn wgpu_device() -> Result<Device, String> {
         (device, probe)
     });
     match started {
-        Ok((device, probe)) if probe == 4.0 => Ok(device),
+        Ok((device, 4.0)) => Ok(device),
         Ok((_, probe)) => Err(format!(
             "backend `wgpu` started but computed 1+1+1+1 = {probe}"
         )),
