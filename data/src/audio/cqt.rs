@@ -20,7 +20,7 @@ pub const C1_HZ: f64 = 32.70319566257483;
 
 /// One octave's filters in the frequency domain, sparsified: per filter, the bins from its first to its
 /// last kept one (dropped bins inside that span hold 0, which adds nothing), real and imaginary parts
-/// apart so the products vectorise.
+/// apart.
 struct OctaveBasis {
     n_fft: usize,
     rows: Vec<BasisRow>,
@@ -44,28 +44,29 @@ impl BasisRow {
         BasisRow { first_bin, re, im }
     }
 
-    /// |Σ basis[i]·spectrum[i]|, the spectrum split into real and imaginary parts.
-    fn magnitude(&self, spec_re: &[f64], spec_im: &[f64]) -> f64 {
+    /// |Σ basis[i]·spectrum[i]|.
+    fn magnitude(&self, spec: &[Complex64]) -> f64 {
         let n = self.re.len();
-        let (sr, si) = (
-            &spec_re[self.first_bin..self.first_bin + n],
-            &spec_im[self.first_bin..self.first_bin + n],
-        );
+        let xs = &spec[self.first_bin..self.first_bin + n];
         let mut acc_re = [0.0f64; 4];
         let mut acc_im = [0.0f64; 4];
         let chunks = n / 4 * 4;
         for j in (0..chunks).step_by(4) {
             for l in 0..4 {
-                let (wr, wi, xr, xi) = (self.re[j + l], self.im[j + l], sr[j + l], si[j + l]);
-                acc_re[l] += wr * xr - wi * xi;
-                acc_im[l] += wr * xi + wi * xr;
+                let (wr, wi, x) = (self.re[j + l], self.im[j + l], xs[j + l]);
+                acc_re[l] += wr * x.re - wi * x.im;
+                acc_im[l] += wr * x.im + wi * x.re;
             }
         }
         let mut re = (acc_re[0] + acc_re[1]) + (acc_re[2] + acc_re[3]);
         let mut im = (acc_im[0] + acc_im[1]) + (acc_im[2] + acc_im[3]);
-        for j in chunks..n {
-            re += self.re[j] * sr[j] - self.im[j] * si[j];
-            im += self.re[j] * si[j] + self.im[j] * sr[j];
+        for ((&wr, &wi), x) in self.re[chunks..]
+            .iter()
+            .zip(&self.im[chunks..])
+            .zip(&xs[chunks..])
+        {
+            re += wr * x.re - wi * x.im;
+            im += wr * x.im + wi * x.re;
         }
         (re * re + im * im).sqrt()
     }
@@ -237,10 +238,8 @@ fn response_by_frames(y: &[f64], hop: usize, basis: &OctaveBasis) -> Spectrogram
     let n_rows = basis.rows.len();
     let ones = vec![1.0; basis.n_fft];
     let data = map_frames(y, basis.n_fft, hop, &ones, n_rows, |spec, out| {
-        let re: Vec<f64> = spec.iter().map(|c| c.re).collect();
-        let im: Vec<f64> = spec.iter().map(|c| c.im).collect();
         for (o, row) in out.iter_mut().zip(&basis.rows) {
-            *o = row.magnitude(&re, &im);
+            *o = row.magnitude(spec);
         }
     });
     Spectrogram {

@@ -10,6 +10,7 @@
 //! side from a lane-interleaved copy of the input (AVX2 where the CPU has it). A test checks every path
 //! against a literal transcription of resampy's loop.
 
+use std::borrow::Cow;
 use std::fmt;
 use std::str::FromStr;
 use std::sync::OnceLock;
@@ -418,9 +419,10 @@ impl Registers {
         }
     }
 
-    fn span(&self, a: usize, b: usize) -> Vec<f64> {
+    /// Registers a..b: borrowed when all are stored, computed for the (short) edges otherwise.
+    fn span(&self, a: usize, b: usize) -> Cow<'_, [f64]> {
         match self {
-            Registers::All(all) => all[a..b].to_vec(),
+            Registers::All(all) => Cow::Borrowed(&all[a..b]),
             Registers::Periodic { .. } => (a..b).map(|t| self.get(t)).collect(),
         }
     }
