@@ -18,12 +18,13 @@ use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use qean_data::fsutil::atomic_write;
 use qean_data::synth::{self, RealTrack, SynthOptions};
+use qean_eval::motion_energy::{motion_energy, EnergyReference, MotionEnergy};
 use qean_eval::report::MetricsReport;
 use qean_eval::run_eval::RunReport;
 use qean_train::checkpoint::Checkpoint;
 use qean_train::generate::{self, GenerateOptions, SeedSource};
 use qean_train::run_config::string_override;
-use qean_train::{ProgressMode, RunConfig, Start, TrainOptions};
+use qean_train::{ProgressMode, RunConfig};
 
 /// A file shipped inside the binary.
 struct Asset {
@@ -67,6 +68,8 @@ const TRAIN_TRACKS: [(&str, &str); 2] = [
 /// How big the demo is.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Budget {
+    /// The smoke-test size (`--quick`): too short for the dances to be trusted.
+    pub quick: bool,
     pub sequences: usize,
     pub seconds: f64,
     /// Seed motion and music window lengths (frames): shorter than mint's 120 / 240 so that CPU
@@ -79,13 +82,17 @@ pub struct Budget {
     pub dance_frames: usize,
     /// Most frames generated per test/val sequence in the evaluation (`qean eval --max-frames`).
     pub eval_frames: usize,
+    /// `--set` overrides of the recipe beyond the presets' (empty: the presets' own).
+    pub recipe: Vec<String>,
 }
 
 impl Budget {
-    /// About 6 minutes on 2 CPU cores (default) or under one (`--quick`).
+    /// About 10 minutes on 2 CPU cores (default) or under one (`--quick`); docs/freezing.md says
+    /// why these sizes.
     pub fn new(quick: bool) -> Budget {
         if quick {
             Budget {
+                quick: true,
                 sequences: 24,
                 seconds: 8.0,
                 motion_len: 30,
@@ -94,17 +101,20 @@ impl Budget {
                 batch_size: 8,
                 dance_frames: 1200,
                 eval_frames: 300,
+                recipe: Vec::new(),
             }
         } else {
             Budget {
+                quick: false,
                 sequences: 60,
                 seconds: 16.0,
-                motion_len: 60,
-                audio_len: 120,
-                steps: 500,
+                motion_len: 30,
+                audio_len: 60,
+                steps: 4000,
                 batch_size: 8,
                 dance_frames: 1200,
-                eval_frames: 300,
+                eval_frames: 600,
+                recipe: Vec::new(),
             }
         }
     }
@@ -129,6 +139,8 @@ pub struct ModelResult {
     pub train_seconds: f64,
     pub final_loss: Option<f64>,
     pub dance: Vec<PathBuf>,
+    /// Motion energy of the held-out dance's generated frames against the synthetic ground truth.
+    pub dance_energy: MotionEnergy,
     pub report_md: PathBuf,
     pub report: RunReport,
 }
@@ -220,16 +232,11 @@ fn dataset(out: &Path, budget: &Budget) -> anyhow::Result<PathBuf> {
     Ok(dir)
 }
 
-fn train_model(
-    opts: &DemoOptions,
-    data: &Path,
-    name: &str,
-    preset: &str,
-) -> anyhow::Result<Option<(Checkpoint, f64, Option<f64>)>> {
-    let b = &opts.budget;
+/// The `--set` overrides that shrink a preset to the demo's budget.
+fn overrides(b: &Budget, data: &Path) -> Vec<String> {
     let steps = b.steps;
-    let every = (steps / 3).max(1);
-    let overrides = vec![
+    let every = (steps / 4).max(1);
+    let mut o = vec![
         string_override("data.dir", &data.to_string_lossy()),
         format!("model.motion_len={}", b.motion_len),
         format!("model.audio_len={}", b.audio_len),
@@ -240,32 +247,106 @@ fn train_model(
         format!("train.log_every={}", (steps / 30).max(1)),
         format!("schedule.boundaries=[{}]", (steps * 3 / 4).max(1)),
     ];
-    let config =
-        RunConfig::load(&opts.out.join(preset), &overrides).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let run_dir = opts.out.join("runs").join(name);
-    say(format!(
-        "train {name}: {preset}, {steps} steps → {}",
-        run_dir.display()
-    ));
-    let out = qean_train::train(
-        config,
-        &TrainOptions {
-            run_dir: run_dir.clone(),
-            start: Start::Auto,
-            progress: opts.progress,
-            stop: opts.stop.clone(),
-            label: name.to_string(),
-        },
-    )?;
-    if out.interrupted {
+    o.extend(b.recipe.iter().cloned());
+    o
+}
+
+/// A finished run: its newest checkpoint, training seconds and last loss.
+type Trained = (Checkpoint, f64, Option<f64>);
+
+/// Trains every model at once, each in its own `qean train` process: a tiny model keeps one
+/// core busy, so on two cores two runs take the time of one. Each child resumes its run when it
+/// has checkpoints (an interrupted demo continues). Ctrl-C reaches the children too (same
+/// process group): each checkpoints and exits, and this returns `None`.
+fn train_all(
+    opts: &DemoOptions,
+    data: &Path,
+    presets: &[(&str, &str, &str)],
+) -> anyhow::Result<Option<Vec<Trained>>> {
+    use std::io::BufRead;
+    use std::process::{Command, Stdio};
+    let exe = std::env::current_exe().context("cannot find the qean executable")?;
+    let overrides = overrides(&opts.budget, data);
+    let mut children = Vec::new();
+    for (name, _, preset) in presets {
+        let config = opts.out.join(preset);
+        // Checked here, so a bad preset fails before anything starts.
+        RunConfig::load(&config, &overrides).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let run_dir = opts.out.join("runs").join(name);
+        let resume = qean_train::run_dir::list_checkpoints(&run_dir).is_ok_and(|c| !c.is_empty());
         say(format!(
-            "interrupted: {name} checkpointed at step {}; run the demo again to continue",
-            out.step
+            "train {name}: {preset}, {} steps → {}{}",
+            opts.budget.steps,
+            run_dir.display(),
+            if resume { " (continuing)" } else { "" }
         ));
+        let mut cmd = Command::new(&exe);
+        cmd.arg("train").arg("--config").arg(&config).arg("--plain");
+        if resume {
+            cmd.arg("--resume").arg(&run_dir);
+        } else {
+            cmd.arg("--run-dir").arg(&run_dir);
+        }
+        for o in &overrides {
+            cmd.arg("--set").arg(o);
+        }
+        let mut child = cmd
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .with_context(|| format!("cannot start {}", exe.display()))?;
+        // Progress lines, prefixed; the last one is the error if the child fails.
+        let stderr = child.stderr.take().expect("piped");
+        let label = name.to_string();
+        let quiet = opts.progress == ProgressMode::Quiet;
+        let reader = std::thread::spawn(move || {
+            let mut last = String::new();
+            for line in std::io::BufReader::new(stderr)
+                .lines()
+                .map_while(|l| l.ok())
+            {
+                if !quiet && !line.trim().is_empty() {
+                    say(format!("train {label}: {line}"));
+                }
+                last = line;
+            }
+            last
+        });
+        children.push((name.to_string(), run_dir, child, reader));
+    }
+    let mut results = Vec::new();
+    let mut interrupted = false;
+    let mut failure = None;
+    for (name, run_dir, mut child, reader) in children {
+        let status = child.wait().context("waiting for a training process")?;
+        let last = reader.join().unwrap_or_default();
+        match status.code() {
+            Some(0) => {
+                let ck = qean_train::checkpoint::resolve(&run_dir)?;
+                let (seconds, loss) = (ck.state.elapsed_seconds, ck.state.last_loss);
+                results.push((ck, seconds, loss));
+            }
+            Some(130) | None => {
+                interrupted = true;
+                say(format!(
+                    "interrupted: {name} checkpointed; run the demo again to continue"
+                ));
+            }
+            Some(_) => {
+                failure.get_or_insert(format!(
+                    "training {name} failed: {}",
+                    last.trim_start_matches("error: ")
+                ));
+            }
+        }
+    }
+    if let Some(f) = failure {
+        bail!("{f}");
+    }
+    if interrupted || opts.stop.load(std::sync::atomic::Ordering::SeqCst) {
         return Ok(None);
     }
-    let ck = Checkpoint::read(&out.checkpoint)?;
-    Ok(Some((ck, out.seconds, out.last_loss)))
+    Ok(Some(results))
 }
 
 /// A stage marker: the stage's output is current if the marker names the same checkpoint.
@@ -283,7 +364,7 @@ fn dance(
     name: &str,
     ck: &Checkpoint,
     frames: usize,
-) -> anyhow::Result<Vec<PathBuf>> {
+) -> anyhow::Result<(Vec<PathBuf>, Vec<qean_eval::Frame>)> {
     let dir = out.join("dances").join(name);
     let stem = "Vibe_Ace";
     let marker = dir.join(".done");
@@ -292,8 +373,10 @@ fn dance(
         .map(|e| dir.join(format!("{stem}.{e}")))
         .collect();
     if marker_matches(&marker, ck) && expected.iter().all(|p| p.is_file()) {
-        say(format!("dance {name}: reusing {}", dir.display()));
-        return Ok(expected);
+        if let Ok(joints) = qean_eval::io::read_joints(&expected[1], qean_data::FkRoot::Smpl) {
+            say(format!("dance {name}: reusing {}", dir.display()));
+            return Ok((expected, joints));
+        }
     }
     let song = generate::load_song(&out.join(HELD_OUT), Some(stem), ck.config.model.audio_len)?;
     // Seed: the opening of the first test sequence (a pose the models know, unlike a T-pose).
@@ -324,7 +407,7 @@ fn dance(
         &GenerateOptions {
             frames,
             audio_pad: qean_data::autoregress::AudioPad::Stop,
-            feedback_project: false,
+            feedback_project: ck.config.recipe.feedback_project,
             render: true,
             backend: ck.config.train.backend.clone(),
         },
@@ -343,7 +426,10 @@ fn dance(
         g.generated,
         dir.display()
     ));
-    Ok(g.paths.all().iter().map(|p| p.to_path_buf()).collect())
+    Ok((
+        g.paths.all().iter().map(|p| p.to_path_buf()).collect(),
+        qean_eval::run_eval::frames_of(g.joints.clone()),
+    ))
 }
 
 fn evaluate(
@@ -400,28 +486,36 @@ fn num(v: Option<f64>) -> String {
     v.map_or_else(|| "-".into(), |x| format!("{x:.4}"))
 }
 
-/// The final table: ground truth, each model, the chance baselines; then the checks.
-pub fn table(models: &[ModelResult]) -> String {
+/// The final tables: the evaluation (ground truth, each model, the chance baselines), the
+/// held-out dance's motion energy; then the checks, in words.
+pub fn table(models: &[ModelResult], reference: &EnergyReference) -> String {
     let mut t = String::from(
-        "| | FID_k ↓ | FID_g ↓ | Dist_k → | Dist_g → | BeatAlign ↑ | train time |\n\
-         |---|---|---|---|---|---|---|\n",
+        "| | FID_k ↓ | FID_g ↓ | Dist_k → | Dist_g → | BeatAlign ↑ | speed ratio → 1 | accel ratio → 1 | frozen ↓ | train time |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n",
     );
     if let Some(first) = models.first().and_then(|m| m.report.reports.first()) {
         t += &format!(
-            "| ground truth (synthetic test + val) | - | - | {} | {} | {} | - |\n",
+            "| ground truth (synthetic test + val) | - | - | {} | {} | {} | 1 | 1 | 0 % | - |\n",
             num(Some(first.gt_div_k)),
             num(Some(first.gt_div_g)),
             num(first.gt_beat_align)
         );
     }
     let row = |label: &str, r: &MetricsReport, time: &str| {
+        let e = r.motion_energy.as_ref();
         format!(
-            "| {label} | {} | {} | {} | {} | {} | {time} |\n",
+            "| {label} | {} | {} | {} | {} | {} | {} | {} | {} | {time} |\n",
             num(Some(r.fid_k)),
             num(Some(r.fid_g)),
             num(Some(r.div_k)),
             num(Some(r.div_g)),
-            num(r.beat_align)
+            num(r.beat_align),
+            e.map_or("-".into(), |e| format!("{:.2}", e.speed_ratio)),
+            e.map_or("-".into(), |e| format!("{:.2}", e.accel_ratio)),
+            e.map_or("-".into(), |e| format!(
+                "{:.0} %",
+                100.0 * e.freeze_fraction
+            )),
         )
     };
     for m in models {
@@ -441,25 +535,46 @@ pub fn table(models: &[ModelResult]) -> String {
         {
             // Same motions as the model's row, so only BeatAlign differs.
             t += &format!(
-                "| chance: {} with random music (all pairings) | | | | | {} | - |\n",
+                "| chance: {} with random music (all pairings) | | | | | {} | | | | - |\n",
                 m.label,
                 num(r.beat_align)
             );
         }
+    }
+    t += &format!(
+        "\nThe held-out song's dance (generated frames only), against the synthetic ground truth's mean joint speed \
+         {:.3} m/s and acceleration {:.2} m/s² (a 1-s window is frozen below {:.3} m/s):\n\n\
+         | | speed per 5 s (m/s) | speed ratio per 5 s (0.6–1.6) | accel ratio per 5 s (≤ 2) | frozen (≤ 10 %) | verdict |\n\
+         |---|---|---|---|---|---|\n",
+        reference.speed,
+        reference.accel,
+        reference.freeze_threshold()
+    );
+    for m in models {
+        let e = &m.dance_energy;
+        let speeds: Vec<String> = e.spans.iter().map(|s| format!("{:.2}", s.speed)).collect();
+        t += &format!(
+            "| {} | {} | {} | {} | {:.0} % | {} |\n",
+            m.label,
+            speeds.join("/"),
+            e.span_speed_ratios(),
+            e.span_accel_ratios(),
+            100.0 * e.freeze_fraction,
+            verdict(e)
+        );
     }
     t += "\n";
     for m in models {
         let (Some(r), Some(b)) = (m.report.reports.first(), m.report.baselines.as_ref()) else {
             continue;
         };
-        let fid = if r.fid_k < b.frozen.fid_k {
-            "below"
-        } else {
-            "NOT below"
-        };
+        let e = &m.dance_energy;
+        t += &format!("- {}: the held-out dance {}", m.label, dance_sentence(e));
+        let bound = 0.7 * b.frozen.fid_k;
+        let fid = if r.fid_k <= bound { "met" } else { "NOT met" };
         t += &format!(
-            "{}: FID_k {:.4} is {fid} the frozen baseline's {:.4}",
-            m.label, r.fid_k, b.frozen.fid_k
+            "; FID_k {:.2} vs 0.7 × the frozen baseline's {:.2} = {bound:.2}: {fid}",
+            r.fid_k, b.frozen.fid_k
         );
         match (
             r.beat_align,
@@ -475,12 +590,47 @@ pub fn table(models: &[ModelResult]) -> String {
     t
 }
 
+fn verdict(e: &MotionEnergy) -> &'static str {
+    if e.dances() {
+        "dances"
+    } else {
+        let v = e.verdict();
+        match (v.froze, v.jitters) {
+            (true, true) => "FROZE and JITTERS",
+            (true, false) => "FROZE",
+            (false, true) => "JITTERS",
+            (false, false) => "too fast",
+        }
+    }
+}
+
+/// "keeps dancing (…)" or "FROZE (…)", with the numbers that decide it.
+fn dance_sentence(e: &MotionEnergy) -> String {
+    let detail = format!(
+        "speed ratio per 5 s {}, accel ratio per 5 s {}, {:.0} % of 1-s windows frozen",
+        e.span_speed_ratios(),
+        e.span_accel_ratios(),
+        100.0 * e.freeze_fraction
+    );
+    if e.dances() {
+        format!("keeps dancing ({detail})")
+    } else {
+        format!("does NOT dance: {} ({detail})", verdict(e))
+    }
+}
+
 /// Runs the demo.
 pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
     let started = Instant::now();
     let out = &opts.out;
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
     write_assets(out)?;
+    if opts.budget.quick {
+        say(format!(
+            "--quick: a smoke test of every stage ({} training steps): its dances may freeze or jitter",
+            opts.budget.steps
+        ));
+    }
     let data = dataset(out, &opts.budget)?;
     let presets = [
         ("fact", "tiny FACT", "configs/tiny/fact.toml"),
@@ -490,25 +640,33 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
             "configs/tiny/full.toml",
         ),
     ];
-    let mut trained = Vec::new();
-    for (name, label, preset) in presets {
-        match train_model(opts, &data, name, preset)? {
-            Some(t) => trained.push((name, label, t)),
-            None => {
-                return Ok(DemoResult {
-                    dataset: data,
-                    models: Vec::new(),
-                    table: String::new(),
-                    summary: PathBuf::new(),
-                    finished: false,
-                })
-            }
+    let trained: Vec<_> = match train_all(opts, &data, &presets)? {
+        Some(t) => presets
+            .iter()
+            .zip(t)
+            .map(|((name, label, _), t)| (*name, *label, t))
+            .collect(),
+        None => {
+            return Ok(DemoResult {
+                dataset: data,
+                models: Vec::new(),
+                table: String::new(),
+                summary: PathBuf::new(),
+                finished: false,
+            })
         }
-    }
+    };
+    let reference = qean_eval::run_eval::dataset_energy_reference(&data, qean_data::FkRoot::Smpl)?;
     let mut models = Vec::new();
     for (name, label, (ck, seconds, loss)) in trained {
         let run_dir = out.join("runs").join(name);
-        let dance = dance(out, &data, name, &ck, opts.budget.dance_frames)?;
+        let (dance, joints) = dance(out, &data, name, &ck, opts.budget.dance_frames)?;
+        let seed = ck.config.model.motion_len.min(joints.len());
+        let (_, dance_energy) = motion_energy([&joints[seed..]], &reference);
+        say(format!(
+            "dance {name}: {}",
+            dance_energy.describe(&reference)
+        ));
         let (report, report_md) = evaluate(&run_dir, &data, &ck, opts.budget.eval_frames)?;
         models.push(ModelResult {
             label: label.to_string(),
@@ -517,11 +675,19 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
             train_seconds: seconds,
             final_loss: loss,
             dance,
+            dance_energy,
             report_md,
             report,
         });
     }
-    let table = table(&models);
+    let mut table = table(&models, &reference);
+    if opts.budget.quick {
+        table += &format!(
+            "\nThis was `qean demo --quick`, a smoke test of every stage: {} training steps are far too few, so its \
+             dances may freeze or jitter. `qean demo` trains long enough for dances that dance.\n",
+            opts.budget.steps
+        );
+    }
     let mut summary = format!(
         "# qean demo\n\nDataset: {} ({} sequences of ~{} s). Each model trained {} steps (batch {}, windows of {} \
          motion / {} music frames) on CPU; scored on the test + val split (seed = the first {} ground-truth \

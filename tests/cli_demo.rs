@@ -38,18 +38,32 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
     ] {
         assert!(table.contains(row), "missing {row:?} in:\n{table}");
     }
-    // Each model is compared with both chance baselines (the full demo's numbers are in the notes:
-    // the quick one trains too briefly to promise a winner).
+    // Each model's held-out dance is judged, and the model is compared with both chance
+    // baselines (the full demo's numbers are in docs/freezing.md: the quick one trains too
+    // briefly to promise a dance, and says so).
     for label in ["tiny FACT", "tiny QEAN (full: SPE + QRA)"] {
         let line = table
             .lines()
-            .find(|l| l.starts_with(&format!("{label}: FID_k ")))
+            .find(|l| l.starts_with(&format!("- {label}: the held-out dance ")))
             .unwrap_or_else(|| panic!("no check line for {label}:\n{table}"));
         assert!(
-            line.contains("the frozen baseline's") && line.contains("random pairing's"),
+            line.contains("speed ratio per 5 s")
+                && line.contains("the frozen baseline's")
+                && line.contains("random pairing's"),
             "{line}"
         );
+        let row = table
+            .lines()
+            .find(|l| l.starts_with(&format!("| {label} | ")) && l.matches('/').count() >= 6)
+            .unwrap_or_else(|| panic!("no held-out dance row for {label}:\n{table}"));
+        // Four 5-s spans of speed and of speed and acceleration ratios.
+        assert_eq!(
+            row.split('|').nth(2).unwrap().matches('/').count(),
+            3,
+            "{row}"
+        );
     }
+    assert!(table.contains("smoke test"), "{table}");
     for model in ["fact", "qean"] {
         let dir = out.join("dances").join(model);
         for f in [

@@ -322,6 +322,18 @@ fn sample_writes_a_1200_frame_dance_for_vibe_ace_in_every_format() {
         text.contains("vibe: 120 seed + 1200 generated frames"),
         "{text}"
     );
+    // The speed profile against the run's dataset, four 5-s spans, and a verdict.
+    let motion = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("motion: speed per 5 s "))
+        .unwrap_or_else(|| panic!("no speed profile: {text}"));
+    assert!(motion.contains("(reference "), "{motion}");
+    assert!(
+        ["dances", "FROZE", "JITTERS"]
+            .iter()
+            .any(|v| motion.ends_with(v)),
+        "{motion}"
+    );
     for f in [
         "vibe.pkl",
         "vibe.joints.npy",

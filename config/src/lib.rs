@@ -6,11 +6,13 @@
 //! qean-models and qean-train re-export these modules under their old paths.
 
 pub mod model;
+pub mod recipe;
 pub mod run;
 pub mod schedule;
 pub mod sweep;
 
 pub use model::{ConfigError, ModelConfig};
+pub use recipe::{AudioNorm, Predict, RecipeBase, RecipeConfig, RolloutMode};
 pub use run::RunConfig;
 
 /// Backend names a run config and `--backend` accept (qean-models builds the device).

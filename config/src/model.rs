@@ -139,6 +139,20 @@ pub enum QraPositions {
     TimeAligned,
 }
 
+/// How the four ω/θ convs of QRA start (issue 17: with the default initialisation the first QRA
+/// layer's scores correlate weakly with dot-product scores, so QRA starts near random attention).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum QraInit {
+    /// U(±1/sqrt(C_in·kernel)) for weights and biases (the Quatformer reference).
+    Default,
+    /// The same bound × 0.1: small rotations, QRA close to attention at step 0.
+    Small,
+    /// Weights and biases zero: QRA equals attention at step 0 (QRA-1). ω = ReLU(0) then gets
+    /// no gradient, so only the phases θ learn.
+    Zero,
+}
+
 /// How the audio branch embeds its input (SPEC §4.7).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -228,6 +242,8 @@ pub struct ModelConfig {
     pub qra_positions: QraPositions,
     /// Multiply ω by 2π (QEAN eq. 26); the Quatformer code omits it.
     pub qra_two_pi: bool,
+    /// Initialisation of the ω/θ convs.
+    pub qra_init: QraInit,
     /// Weight of Quatformer's ω smoothness penalty mean((ω_{n+1} − ω_n)²).
     pub qra_lambda_omega: f64,
     /// Weight of Quatformer's phase penalty mean(θ²).
@@ -276,6 +292,7 @@ impl Default for ModelConfig {
             qra_qk_proj: QraQkProj::Dense,
             qra_positions: QraPositions::Concatenated,
             qra_two_pi: true,
+            qra_init: QraInit::Default,
             qra_lambda_omega: 0.0,
             qra_lambda_theta: 0.0,
             input_fusion: InputFusion::Dense,

@@ -12,6 +12,7 @@ use qean_data::motion::Layout;
 use qean_data::windows::WindowSpec;
 use serde::{Deserialize, Serialize};
 
+use crate::recipe::RecipeConfig;
 use crate::schedule::ScheduleConfig;
 
 /// `[data]`: where the AIST++-layout dataset is and which splits to use.
@@ -108,6 +109,8 @@ pub struct RunConfig {
     pub optim: OptimConfig,
     pub schedule: ScheduleConfig,
     pub train: TrainConfig,
+    /// Remedies against freezing and jitter (default: mint's plain recipe).
+    pub recipe: RecipeConfig,
 }
 
 /// What one file of an `extends` chain may hold (every table optional and partial).
@@ -121,6 +124,7 @@ struct RunFile {
     optim: Option<OptimConfig>,
     schedule: Option<ScheduleConfig>,
     train: Option<TrainConfig>,
+    recipe: Option<RecipeConfig>,
 }
 
 fn check_file(path: &Path, text: &str) -> Result<(), ConfigError> {
@@ -266,6 +270,8 @@ impl RunConfig {
             ));
         }
         self.schedule.validate(t.steps)?;
+        self.recipe
+            .validate(self.model.motion_len, self.model.target_len)?;
         for split in [&self.data.train_split, &self.data.val_split] {
             if !split.is_empty() && split.parse::<qean_data::dataset::Split>().is_err() {
                 return Err(format!(
@@ -307,7 +313,7 @@ impl RunConfig {
     pub fn summary(&self) -> String {
         let m = &self.model;
         format!(
-            "{:?} hidden {} heads {} ffn {} layers {}-{}-{} position {:?} attention {:?} dropout {}; batch {} steps {} seed {}",
+            "{:?} hidden {} heads {} ffn {} layers {}-{}-{} position {:?} attention {:?} dropout {}; batch {} steps {} seed {}; {}",
             m.arch,
             m.hidden,
             m.heads,
@@ -320,7 +326,8 @@ impl RunConfig {
             m.dropout,
             self.train.batch_size,
             self.train.steps,
-            self.train.seed
+            self.train.seed,
+            self.recipe.describe()
         )
         .to_lowercase()
     }

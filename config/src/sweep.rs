@@ -7,6 +7,7 @@
 //! base = "../tiny/baseline.toml"        # relative to this file
 //! seeds = [0, 1]
 //! evaluate = false                      # also compute the AIST++ metrics per run
+//! eval_frames = 1200                    # generated frames per sequence when evaluating
 //! [set]                                 # overrides shared by every run
 //! "train.steps" = 200
 //! [[variant]]
@@ -44,6 +45,9 @@ pub struct SweepConfig {
     pub seeds: Vec<u64>,
     #[serde(default)]
     pub evaluate: bool,
+    /// Generated frames per sequence when evaluating (default 1200, as the protocol).
+    #[serde(default)]
+    pub eval_frames: Option<usize>,
     #[serde(default)]
     pub set: BTreeMap<String, toml::Value>,
     #[serde(default)]

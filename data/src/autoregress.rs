@@ -29,6 +29,14 @@ pub struct SampleOptions {
     pub audio_pad: AudioPad,
     /// Project fed-back rotation blocks to SO(3) and zero the pad dims (off in the reference).
     pub feedback_project: bool,
+    /// The model predicts offsets from the last input frame (`recipe.predict = "offset"`): the
+    /// frame is the window's last frame plus the output.
+    pub offset_output: bool,
+    /// Temporal ensembling (after action-chunking transformers): frame t is the weighted mean of
+    /// the predictions of the last `ensemble` passes (token k of the pass k frames earlier,
+    /// weight exp(−ensemble_decay·k)). 1 = token 0 only (mint).
+    pub ensemble: usize,
+    pub ensemble_decay: f64,
     pub layout: Layout,
     pub spec: WindowSpec,
 }
@@ -39,6 +47,9 @@ impl Default for SampleOptions {
             frames: 1200,
             audio_pad: AudioPad::Stop,
             feedback_project: false,
+            offset_output: false,
+            ensemble: 1,
+            ensemble_decay: 0.0,
             layout: Layout::L225,
             spec: WindowSpec::default(),
         }
@@ -81,8 +92,9 @@ pub fn project_frame(frame: &mut [f32], layout: Layout) {
 }
 
 /// Generate every request. `model(motion, audio, batch)` receives motion [batch, motion_len, D] and audio
-/// [batch, audio_len, 35] (row-major) and returns the first output token of each, [batch, D].
-/// `progress(step, total)` is called after each model pass. Returns seed ++ generated per request.
+/// [batch, audio_len, 35] (row-major) and returns the first `opts.ensemble` output tokens of each,
+/// [batch, ensemble, D]. `progress(step, total)` is called after each model pass. Returns seed ++
+/// generated per request.
 pub fn autoregress<E>(
     requests: &[SampleRequest],
     opts: &SampleOptions,
@@ -108,6 +120,13 @@ pub fn autoregress<E>(
         .collect();
     // The motion window currently fed back, per request (may differ from the stored output when projecting).
     let mut windows: Vec<Vec<f32>> = requests.iter().map(|r| r.seed[..ml * d].to_vec()).collect();
+    // Temporal ensembling: per request, the weighted sums of the predictions of the next frames.
+    let e = opts.ensemble.max(1);
+    let weights: Vec<f64> = (0..e)
+        .map(|k| (-opts.ensemble_decay * k as f64).exp())
+        .collect();
+    let mut pending: Vec<std::collections::VecDeque<(f64, Vec<f64>)>> =
+        vec![std::collections::VecDeque::new(); requests.len()];
     let mut motion = Vec::new();
     let mut audio = Vec::new();
     for i in 0..total {
@@ -127,11 +146,35 @@ pub fn autoregress<E>(
         let out = model(&motion, &audio, active.len())?;
         assert_eq!(
             out.len(),
-            active.len() * d,
+            active.len() * e * d,
             "model returned the wrong number of values"
         );
         for (n, &k) in active.iter().enumerate() {
-            let mut y = out[n * d..(n + 1) * d].to_vec();
+            let last = &windows[k][(ml - 1) * d..ml * d];
+            let mut y = if e == 1 {
+                out[n * d..(n + 1) * d].to_vec()
+            } else {
+                // Token j predicts frame i + j: add it to that frame's running sum.
+                let q = &mut pending[k];
+                for (j, w) in weights.iter().enumerate() {
+                    if q.len() <= j {
+                        q.push_back((0.0, vec![0.0; d]));
+                    }
+                    let (ws, sum) = &mut q[j];
+                    *ws += w;
+                    let tok = &out[(n * e + j) * d..(n * e + j + 1) * d];
+                    for ((s, &x), &l) in sum.iter_mut().zip(tok).zip(last) {
+                        *s += w * (x as f64 + if opts.offset_output { l as f64 } else { 0.0 });
+                    }
+                }
+                let (ws, sum) = q.pop_front().expect("frame i has a prediction");
+                sum.iter().map(|s| (s / ws) as f32).collect()
+            };
+            if opts.offset_output && e == 1 {
+                for (x, l) in y.iter_mut().zip(last) {
+                    *x += l;
+                }
+            }
             if opts.feedback_project {
                 project_frame(&mut y, opts.layout);
             }
@@ -223,6 +266,82 @@ mod tests {
             .unwrap();
             let want = if pad == AudioPad::Stop { 11 } else { 20 };
             assert_eq!(out[0].len(), (120 + want) * d);
+        }
+    }
+
+    /// With offset outputs, a model that outputs zeros holds the last seed frame; one that
+    /// outputs a constant step walks by that step per frame.
+    #[test]
+    fn offset_outputs_are_added_to_the_last_frame() {
+        let d = 225;
+        let opts = SampleOptions {
+            frames: 5,
+            offset_output: true,
+            ..Default::default()
+        };
+        let req = request(3.0, 400, d);
+        let out = autoregress::<()>(
+            &[req.clone()],
+            &opts,
+            |_m, _a, b| Ok(vec![0.25; b * d]),
+            |_, _| {},
+        )
+        .unwrap();
+        let last = &req.seed[119 * d..120 * d];
+        for g in 0..5 {
+            let f = &out[0][(120 + g) * d..(121 + g) * d];
+            for (x, l) in f.iter().zip(last) {
+                assert_eq!(*x, l + 0.25 * (g + 1) as f32);
+            }
+        }
+    }
+
+    /// Ensembling averages the overlapping predictions of each frame: a stub whose token j of
+    /// pass i says i + j predicts frame i + j as i + j from every pass, so frames come out exact;
+    /// one whose tokens say the pass index gives each frame the weighted mean of the passes.
+    #[test]
+    fn ensembling_averages_overlapping_predictions() {
+        let d = 219;
+        let layout = Layout::L219;
+        for decay in [0.0, 0.5] {
+            let opts = SampleOptions {
+                frames: 8,
+                ensemble: 3,
+                ensemble_decay: decay,
+                layout,
+                ..Default::default()
+            };
+            let mut pass = 0usize;
+            let out = autoregress::<()>(
+                &[request(0.0, 400, d)],
+                &opts,
+                |_m, _a, b| {
+                    let mut y = Vec::new();
+                    for _ in 0..b {
+                        for _j in 0..3 {
+                            y.extend(std::iter::repeat_n(pass as f32, d));
+                        }
+                    }
+                    pass += 1;
+                    Ok(y)
+                },
+                |_, _| {},
+            )
+            .unwrap();
+            let w: Vec<f64> = (0..3).map(|k| (-decay * k as f64).exp()).collect();
+            for i in 0..8usize {
+                // Frame i is predicted by passes i − j (token j) for j ≤ min(i, 2).
+                let (mut num, mut den) = (0.0, 0.0);
+                for j in 0..=i.min(2) {
+                    num += w[j] * (i - j) as f64;
+                    den += w[j];
+                }
+                let got = out[0][(120 + i) * d];
+                assert!(
+                    (got as f64 - num / den).abs() < 1e-5,
+                    "decay {decay} frame {i}: {got}"
+                );
+            }
         }
     }
 

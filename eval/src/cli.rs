@@ -46,6 +46,24 @@ pub struct Args {
     /// Checkpoint mode: keep generating past the end of the music by repeating its last frame.
     #[arg(long)]
     pub audio_pad_edge: bool,
+    /// Checkpoint mode: project fed-back rotations to SO(3) while sampling (default: the run's
+    /// recipe.feedback_project).
+    #[arg(long, requires = "run", conflicts_with = "raw_feedback")]
+    pub feedback_project: bool,
+    /// Checkpoint mode: feed raw outputs back unchanged, as mint does (overrides the run's recipe).
+    #[arg(long, requires = "run")]
+    pub raw_feedback: bool,
+    /// Checkpoint mode: temporal ensembling while sampling, the number of overlapping passes
+    /// averaged per frame (default: the run's recipe.ensemble; 1 = mint).
+    #[arg(long, requires = "run")]
+    pub ensemble: Option<usize>,
+    /// Checkpoint mode: the ensembling weights' decay per pass (default: the run's recipe).
+    #[arg(long, requires = "run")]
+    pub ensemble_decay: Option<f64>,
+    /// Checkpoint mode: write the report under R/eval/step-N-TAG/ instead of R/eval/step-N/
+    /// (several sampling settings of one checkpoint side by side).
+    #[arg(long, requires = "run")]
+    pub tag: Option<String>,
     /// Checkpoint mode: backend for sampling (default: the run's).
     #[arg(long)]
     pub backend: Option<String>,

@@ -10,12 +10,14 @@
 pub mod beat_align;
 pub mod cli;
 pub mod config;
+pub mod curves;
 pub mod dist;
 pub mod error;
 pub mod fid;
 pub mod geometric;
 pub mod io;
 pub mod kinetic;
+pub mod motion_energy;
 pub mod normalise;
 pub mod positions;
 pub mod protocol;
@@ -27,6 +29,7 @@ pub use config::{
     BaSegment, BaVariant, EvalConfig, GeometricVariant, MetricsMode, MusicBeatSource, PositionMode,
 };
 pub use error::{Error, Result};
+pub use motion_energy::{EnergyReference, MotionEnergy};
 pub use positions::{Frame, Sequence, N_JOINTS};
 pub use protocol::{evaluate, features_of, BeatLookup, Features};
 pub use report::{render_markdown, MetricsReport, SequenceMetrics};

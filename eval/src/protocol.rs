@@ -13,6 +13,7 @@ use crate::error::{Error, Result};
 use crate::fid::fid;
 use crate::geometric::geometric_features;
 use crate::kinetic::{self, kinetic_features};
+use crate::motion_energy::{motion_energy, EnergyReference};
 use crate::normalise::Normaliser;
 use crate::positions::{check_finite, prepare, Frame, Sequence};
 use crate::report::{Exclusion, MetricsReport, SequenceMetrics};
@@ -236,6 +237,15 @@ pub fn evaluate(
         }
         music_ids = ids.into_iter().map(Some).collect();
     }
+    // Motion energy: the evaluated frames against the whole reference set (raw positions:
+    // differences do not depend on the zero-start).
+    let energy_reference = EnergyReference::fit(refs.iter().map(|s| s.joints.as_slice()));
+    let (seq_energy, set_energy) = motion_energy(
+        gen.iter()
+            .map(|(s, len)| &s.joints[cfg.seed_frames..cfg.seed_frames + len]),
+        &energy_reference,
+    );
+
     let (ba_b, n_b) = mean_of(scores.iter().map(|s| s.and_then(|s| s.bailando)));
     let (ba_m, n_m) = mean_of(scores.iter().map(|s| s.and_then(|s| s.mint)));
     let (gt_b, gn_b) = mean_of(gt_scores.iter().map(|s| s.bailando));
@@ -249,7 +259,8 @@ pub fn evaluate(
         .iter()
         .zip(gen_feats)
         .zip(scores.iter().zip(music_ids))
-        .map(|(((s, len), f), (sc, id))| SequenceMetrics {
+        .zip(seq_energy)
+        .map(|((((s, len), f), (sc, id)), energy)| SequenceMetrics {
             name: s.name.clone(),
             music_id: id,
             frames: *len,
@@ -257,6 +268,7 @@ pub fn evaluate(
             beat_align_mint: sc.and_then(|x| x.mint),
             kinetic: f.kinetic,
             geometric: f.geometric,
+            motion_energy: Some(energy),
         })
         .collect();
     let report = MetricsReport {
@@ -280,6 +292,8 @@ pub fn evaluate(
         n_gt_beat_align: n_gt,
         constant_reference_dims_k: norm_k.constant_dims(),
         constant_reference_dims_g: norm_g.constant_dims(),
+        motion_energy: Some(set_energy),
+        energy_reference: Some(energy_reference),
         sequences,
         excluded,
     };

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{value_name, EvalConfig};
 use crate::error::{Error, Result};
+use crate::motion_energy::{EnergyReference, MotionEnergy};
 
 /// Per generated sequence: its evaluated length, BeatAlign under both variants and the raw
 /// (unnormalised) features.
@@ -18,6 +19,9 @@ pub struct SequenceMetrics {
     pub beat_align_mint: Option<f64>,
     pub kinetic: Vec<f64>,
     pub geometric: Vec<f64>,
+    /// Speed, acceleration and frozen share of the evaluated frames against the reference set.
+    #[serde(default)]
+    pub motion_energy: Option<MotionEnergy>,
 }
 
 /// A sequence left out of some average, and why (also logged).
@@ -58,6 +62,12 @@ pub struct MetricsReport {
     /// Reference dimensions with σ = 0 (normalised by 1e-10 as the reference does).
     pub constant_reference_dims_k: Vec<usize>,
     pub constant_reference_dims_g: Vec<usize>,
+    /// The set's motion energy (speed_ratio, accel_ratio, freeze_fraction, 5-s spans) against
+    /// `energy_reference`, the reference set's statistics.
+    #[serde(default)]
+    pub motion_energy: Option<MotionEnergy>,
+    #[serde(default)]
+    pub energy_reference: Option<EnergyReference>,
     pub sequences: Vec<SequenceMetrics>,
     pub excluded: Vec<Exclusion>,
 }
@@ -85,7 +95,25 @@ impl MetricsReport {
             opts.iter()
                 .filter_map(|(n, v)| v.map(|v| (n.to_string(), v))),
         );
+        let energy = |name: &str, e: &MotionEnergy| -> Vec<(String, f64)> {
+            let mut v = vec![
+                (format!("{name}speed_ratio"), e.speed_ratio),
+                (format!("{name}accel_ratio"), e.accel_ratio),
+                (format!("{name}freeze_fraction"), e.freeze_fraction),
+            ];
+            for s in &e.spans {
+                v.push((format!("{name}span speed"), s.speed));
+                v.push((format!("{name}span accel"), s.accel));
+            }
+            v
+        };
+        if let Some(e) = &self.motion_energy {
+            named.extend(energy("", e));
+        }
         for s in &self.sequences {
+            if let Some(e) = &s.motion_energy {
+                named.extend(energy(&format!("{} ", s.name), e));
+            }
             for v in s.beat_align_bailando.iter().chain(&s.beat_align_mint) {
                 named.push((format!("{} beat_align", s.name), *v));
             }
@@ -110,24 +138,34 @@ fn opt(v: Option<f64>, digits: usize) -> String {
 /// one row per report, then one line per report naming its variants.
 pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
     let mut out = String::new();
-    out.push_str("| Methods | FID_k ↓ | FID_g ↓ | Dist_k ↑ | Dist_g ↑ | BeatAlign ↑ |\n");
-    out.push_str("|---|---|---|---|---|---|\n");
+    out.push_str(
+        "| Methods | FID_k ↓ | FID_g ↓ | Dist_k ↑ | Dist_g ↑ | BeatAlign ↑ | speed ratio → 1 | accel ratio → 1 | frozen ↓ | speed ratio per 5 s |\n",
+    );
+    out.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
     if let Some((_, gt)) = rows.first() {
         out.push_str(&format!(
-            "| AIST++ | - | - | {:.3} | {:.3} | {} |\n",
+            "| AIST++ | - | - | {:.3} | {:.3} | {} | 1 | 1 | - | - |\n",
             gt.gt_div_k,
             gt.gt_div_g,
             opt(gt.gt_beat_align, 4)
         ));
     }
     for (name, r) in rows {
+        let e = r.motion_energy.as_ref();
         out.push_str(&format!(
-            "| {name} | {:.2} | {:.2} | {:.3} | {:.3} | {} |\n",
+            "| {name} | {:.2} | {:.2} | {:.3} | {:.3} | {} | {} | {} | {} | {} |\n",
             r.fid_k,
             r.fid_g,
             r.div_k,
             r.div_g,
-            opt(r.beat_align, 4)
+            opt(r.beat_align, 4),
+            opt(e.map(|e| e.speed_ratio), 2),
+            opt(e.map(|e| e.accel_ratio), 2),
+            e.map_or_else(
+                || "-".into(),
+                |e| format!("{:.0} %", 100.0 * e.freeze_fraction)
+            ),
+            e.map_or_else(|| "-".into(), MotionEnergy::span_speed_ratios),
         ));
     }
     out.push('\n');
@@ -140,6 +178,16 @@ pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
             r.n_beat_align,
             r.n_gt_beat_align,
             r.label
+        ));
+    }
+    if let Some(reference) = rows.first().and_then(|(_, r)| r.energy_reference) {
+        out.push_str(&format!(
+            "- motion energy: ratios to the reference set's mean joint speed {:.3} m/s and acceleration {:.2} m/s² \
+             ({} sequences); a 1-s window is frozen below {:.3} m/s (20 % of the reference's median window)\n",
+            reference.speed,
+            reference.accel,
+            reference.sequences,
+            reference.freeze_threshold()
         ));
     }
     out

@@ -19,6 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cli::{music_beats, Args, EvaluationFile};
 use crate::io::write_json_atomic;
+use crate::motion_energy::EnergyReference;
 use crate::positions::{Frame, Sequence, N_JOINTS};
 use crate::protocol::evaluate;
 use crate::report::{render_markdown, MetricsReport};
@@ -52,11 +53,21 @@ pub struct RunReport {
     pub step: u64,
     pub protocol: Protocol,
     pub frames: usize,
+    /// Whether fed-back frames were projected to SO(3) while sampling.
+    #[serde(default)]
+    pub feedback_project: bool,
+    /// Passes averaged per frame (temporal ensembling; 1 = token 0 only).
+    #[serde(default = "one")]
+    pub ensemble: usize,
     pub pairings: Vec<Pairing>,
     pub reports: Vec<MetricsReport>,
     /// With `--baselines`: the chance baselines, scored like the first report.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub baselines: Option<Baselines>,
+}
+
+fn one() -> usize {
+    1
 }
 
 /// Chance baselines of checkpoint mode (`--baselines`).
@@ -172,7 +183,56 @@ pub fn pairings(names: &[String], protocol: Protocol) -> Vec<(String, String, St
     }
 }
 
-fn frames_of(points: Vec<[f64; 3]>) -> Vec<Frame> {
+/// The motion-energy statistics of a dataset's reference set: every non-ignored sequence, full
+/// length, as the metrics' reference set (SPEC §1.6).
+pub fn dataset_energy_reference(
+    data: &Path,
+    root: qean_data::FkRoot,
+) -> anyhow::Result<EnergyReference> {
+    let ds = Dataset::open(data)?;
+    let mut sequences = Vec::new();
+    for name in ds.all_sequences()? {
+        let m = Motion::read_pkl(&ds.motion_path(&name))?;
+        sequences.push(frames_of(m.joints(root)));
+    }
+    if sequences.is_empty() {
+        bail!(
+            "{}: no motions to take the reference speed from",
+            data.display()
+        );
+    }
+    Ok(EnergyReference::fit(sequences.iter().map(Vec::as_slice)))
+}
+
+/// The reference of [`dataset_energy_reference`], cached in `cache` (a JSON file naming the
+/// dataset; recomputed when it names another or cannot be read or written).
+pub fn cached_energy_reference(data: &Path, cache: &Path) -> anyhow::Result<EnergyReference> {
+    #[derive(Serialize, Deserialize)]
+    struct Cached {
+        data: PathBuf,
+        reference: EnergyReference,
+    }
+    let data_abs = std::fs::canonicalize(data).unwrap_or_else(|_| data.to_path_buf());
+    if let Some(c) = std::fs::read_to_string(cache)
+        .ok()
+        .and_then(|t| serde_json::from_str::<Cached>(&t).ok())
+        .filter(|c| c.data == data_abs)
+    {
+        return Ok(c.reference);
+    }
+    let reference = dataset_energy_reference(data, qean_data::FkRoot::Smpl)?;
+    let _ = write_json_atomic(
+        cache,
+        &Cached {
+            data: data_abs,
+            reference,
+        },
+    );
+    Ok(reference)
+}
+
+/// Joint positions (frames × 24 points) as metric frames.
+pub fn frames_of(points: Vec<[f64; 3]>) -> Vec<Frame> {
     points
         .chunks_exact(N_JOINTS)
         .map(|c| {
@@ -185,6 +245,14 @@ fn frames_of(points: Vec<[f64; 3]>) -> Vec<Frame> {
 
 /// Runs checkpoint mode; returns the report file's content and the markdown table.
 pub fn evaluate_run(args: &Args, run: &Path) -> anyhow::Result<(EvaluationFile, String)> {
+    evaluate_run_full(args, run).map(|(file, table, _)| (file, table))
+}
+
+/// [`evaluate_run`], also returning the whole `report.json` (baselines included).
+pub fn evaluate_run_full(
+    args: &Args,
+    run: &Path,
+) -> anyhow::Result<(EvaluationFile, String, RunReport)> {
     let data = args
         .data
         .as_ref()
@@ -228,6 +296,9 @@ pub fn evaluate_run(args: &Args, run: &Path) -> anyhow::Result<(EvaluationFile, 
             );
         }
         let (audio, _) = feature_cache::load(&ds, music)?;
+        let audio = config
+            .recipe
+            .model_audio(audio, qean_data::windows::AUDIO_DIM);
         requests.push(SampleRequest {
             seed: m.slice(0, seed_frames).to_layout(layout),
             audio,
@@ -240,10 +311,24 @@ pub fn evaluate_run(args: &Args, run: &Path) -> anyhow::Result<(EvaluationFile, 
         } else {
             AudioPad::Stop
         },
-        feedback_project: false,
+        feedback_project: if args.feedback_project || args.raw_feedback {
+            args.feedback_project
+        } else {
+            config.recipe.feedback_project
+        },
+        offset_output: config.recipe.predict == qean_config::recipe::Predict::Offset,
+        ensemble: args.ensemble.unwrap_or(config.recipe.ensemble),
+        ensemble_decay: args.ensemble_decay.unwrap_or(config.recipe.ensemble_decay),
         layout,
         spec: config.window_spec(),
     };
+    if opts.ensemble == 0 || opts.ensemble > config.model.target_len {
+        bail!(
+            "--ensemble must be between 1 and the model's target_len ({}), got {}",
+            config.model.target_len,
+            opts.ensemble
+        );
+    }
     let backend = args
         .backend
         .clone()
@@ -264,9 +349,18 @@ pub fn evaluate_run(args: &Args, run: &Path) -> anyhow::Result<(EvaluationFile, 
     });
     pb.finish_and_clear();
 
-    let out_dir = run
-        .join("eval")
-        .join(qean_train::run_dir::checkpoint_name(ck.state.step));
+    let mut dir_name = qean_train::run_dir::checkpoint_name(ck.state.step);
+    if let Some(tag) = &args.tag {
+        if tag.is_empty()
+            || !tag
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+        {
+            bail!("--tag {tag:?}: use letters, digits, '-', '_' or '.'");
+        }
+        dir_name = format!("{dir_name}-{tag}");
+    }
+    let out_dir = run.join("eval").join(dir_name);
     let joints_dir = out_dir.join("generated");
     std::fs::create_dir_all(&joints_dir)
         .with_context(|| format!("{}: cannot create", joints_dir.display()))?;
@@ -386,17 +480,21 @@ pub fn evaluate_run(args: &Args, run: &Path) -> anyhow::Result<(EvaluationFile, 
         step: ck.state.step,
         protocol: args.protocol,
         frames: args.max_frames,
+        feedback_project: opts.feedback_project,
+        ensemble: opts.ensemble,
         pairings: pairings_out,
         reports: reports.clone(),
         baselines,
     };
     write_json_atomic(&out_dir.join("report.json"), &report)?;
     let md = format!(
-        "# Evaluation of {} ({:?} protocol, {} sequences, seed = first {seed_frames} GT frames, up to {} generated frames)\n\n{table}",
+        "# Evaluation of {} ({:?} protocol, {} sequences, seed = first {seed_frames} GT frames, up to {} generated frames, {} feedback, {} pass(es) per frame)\n\n{table}",
         ck.dir.display(),
         args.protocol,
         report.pairings.len(),
-        args.max_frames
+        args.max_frames,
+        if opts.feedback_project { "projected" } else { "raw" },
+        opts.ensemble
     );
     qean_data::fsutil::atomic_write(&out_dir.join("report.md"), md.as_bytes())?;
     let file = EvaluationFile { reports };
@@ -406,6 +504,7 @@ pub fn evaluate_run(args: &Args, run: &Path) -> anyhow::Result<(EvaluationFile, 
     Ok((
         file,
         format!("{table}\nreport: {}\n", out_dir.join("report.md").display()),
+        report,
     ))
 }
 

@@ -18,11 +18,68 @@ pub fn motion_loss(prediction: Tensor<3>, target: Tensor<3>) -> Tensor<1> {
     (target - prediction.narrow(1, 0, t)).square().mean()
 }
 
+/// Mean squared error of the `order`-th temporal differences (1: velocity, 2: acceleration) of
+/// the first T predicted frames against the target's, over B × (T − order) × D. A recipe option
+/// (issue 17): an L2 loss on poses alone lets uncertain futures shrink towards a still mean pose.
+pub fn difference_loss(prediction: Tensor<3>, target: Tensor<3>, order: usize) -> Tensor<1> {
+    let [_, t, _] = target.dims();
+    assert!(
+        order >= 1 && t > order,
+        "difference_loss: {t} frames, order {order}"
+    );
+    let diff = |x: Tensor<3>| {
+        let mut x = x;
+        for _ in 0..order {
+            let n = x.dims()[1];
+            x = x.clone().narrow(1, 1, n - 1) - x.narrow(1, 0, n - 1);
+        }
+        x
+    };
+    (diff(target) - diff(prediction.narrow(1, 0, t)))
+        .square()
+        .mean()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::testing::{f64_normal, to_vec};
     use burn::tensor::Device;
+
+    #[test]
+    fn difference_loss_matches_a_loop() {
+        let device = Device::flex();
+        let pred = f64_normal([2, 9, 3], &device);
+        let target = f64_normal([2, 6, 3], &device);
+        let (p, t) = (to_vec(pred.clone()), to_vec(target.clone()));
+        for order in [1usize, 2] {
+            let got = to_vec(difference_loss(pred.clone(), target.clone(), order))[0];
+            let mut want = 0.0;
+            let mut n = 0.0;
+            for b in 0..2 {
+                for i in 0..6 - order {
+                    for d in 0..3 {
+                        let pv = |k: usize| p[(b * 9 + k) * 3 + d];
+                        let tv = |k: usize| t[(b * 6 + k) * 3 + d];
+                        let (dp, dt) = if order == 1 {
+                            (pv(i + 1) - pv(i), tv(i + 1) - tv(i))
+                        } else {
+                            (
+                                pv(i + 2) - 2.0 * pv(i + 1) + pv(i),
+                                tv(i + 2) - 2.0 * tv(i + 1) + tv(i),
+                            )
+                        };
+                        want += (dp - dt).powi(2);
+                        n += 1.0;
+                    }
+                }
+            }
+            assert!((got - want / n).abs() < 1e-12, "order {order}");
+        }
+        // A prediction that is the target plus a constant has no velocity error.
+        let shifted = target.clone() + 0.3;
+        assert!(to_vec(difference_loss(shifted, target, 1))[0].abs() < 1e-12);
+    }
 
     #[test]
     fn loss_reads_only_the_first_target_tokens() {

@@ -15,6 +15,9 @@ pub trait DanceGenerator {
     /// motion [B, Lm, D], audio [B, La, A] → the prediction of frame Lm, [B, 1, D] (token 0 of
     /// the forward pass; implementations skip what only the other tokens need).
     fn generate(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3>;
+
+    /// The first `tokens` output tokens, [B, tokens, D] (temporal ensembling).
+    fn generate_tokens(&self, motion: Tensor<3>, audio: Tensor<3>, tokens: usize) -> Tensor<3>;
 }
 
 /// FACT or QEAN.
@@ -119,17 +122,29 @@ impl DanceGenerator for DanceModel {
             DanceModel::Qean(m) => m.forward_first(motion, audio),
         }
     }
+
+    fn generate_tokens(&self, motion: Tensor<3>, audio: Tensor<3>, tokens: usize) -> Tensor<3> {
+        self.forward(motion, audio).narrow(1, 0, tokens)
+    }
 }
 
 impl DanceGenerator for Fact {
     fn generate(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
         self.forward_first(motion, audio)
     }
+
+    fn generate_tokens(&self, motion: Tensor<3>, audio: Tensor<3>, tokens: usize) -> Tensor<3> {
+        self.forward(motion, audio).narrow(1, 0, tokens)
+    }
 }
 
 impl DanceGenerator for Qean {
     fn generate(&self, motion: Tensor<3>, audio: Tensor<3>) -> Tensor<3> {
         self.forward_first(motion, audio)
+    }
+
+    fn generate_tokens(&self, motion: Tensor<3>, audio: Tensor<3>, tokens: usize) -> Tensor<3> {
+        self.forward(motion, audio).narrow(1, 0, tokens)
     }
 }
 

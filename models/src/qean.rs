@@ -103,6 +103,7 @@ impl QeanConfig {
             .with_conv_input(c.qra_conv_input)
             .with_qk_proj(c.qra_qk_proj)
             .with_dropout(c.dropout_at(DropoutSite::Attention))
+            .with_init(c.qra_init)
     }
 
     /// Builds the model (mint's initialisers for the FACT parts).

@@ -23,7 +23,7 @@ use burn::tensor::activation::{relu, softmax};
 use burn::tensor::{Device, Tensor, TensorCreationOptions, TensorData};
 
 use crate::attention::{merge_heads, score_scale, split_heads};
-use crate::config::{AttnScale, QraConvInput, QraDk, QraQkProj};
+use crate::config::{AttnScale, QraConvInput, QraDk, QraInit, QraQkProj};
 use crate::init::glorot_dense;
 use crate::quaternion_linear::{QuaternionLinear, QuaternionLinearConfig};
 use crate::spe::RotaryTables;
@@ -59,6 +59,9 @@ pub struct QraConfig {
     /// Dropout on the attention probabilities.
     #[config(default = 0.0)]
     pub dropout: f64,
+    /// Initialisation of the ω/θ convs.
+    #[config(default = "QraInit::Default")]
+    pub init: QraInit,
 }
 
 /// Quaternion rotary attention.
@@ -167,13 +170,21 @@ impl QraConfig {
             QraConvInput::Projected => dq,
         };
         let bound = 1.0 / ((conv_in * self.kernel) as f64).sqrt();
+        let initializer = match self.init {
+            QraInit::Default => Initializer::Uniform {
+                min: -bound,
+                max: bound,
+            },
+            QraInit::Small => Initializer::Uniform {
+                min: -0.1 * bound,
+                max: 0.1 * bound,
+            },
+            QraInit::Zero => Initializer::Zeros,
+        };
         let conv = || {
             Conv1dConfig::new(conv_in, self.heads * self.periods, self.kernel)
                 .with_padding(PaddingConfig1d::Explicit(self.kernel / 2, self.kernel / 2))
-                .with_initializer(Initializer::Uniform {
-                    min: -bound,
-                    max: bound,
-                })
+                .with_initializer(initializer.clone())
                 .init(device)
         };
         Qra {
@@ -426,6 +437,57 @@ mod tests {
         qra.omega_k = zero(qra.omega_k);
         qra.theta_k = zero(qra.theta_k);
         qra
+    }
+
+    /// Pearson correlation of the row-centred log-probabilities (= row-centred scores) of two
+    /// QRA layers that differ only in their convs.
+    fn score_correlation(a: &Qra, b: &Qra, x: Tensor<3>, positions: &[f64]) -> f64 {
+        let side = || QraSide {
+            x: x.clone(),
+            positions,
+            rope: None,
+        };
+        let centred = |q: &Qra| {
+            let l = q.probabilities(side(), side()).0.log();
+            let mean = l.clone().mean_dim(3);
+            to_vec(l - mean)
+        };
+        let (u, v) = (centred(a), centred(b));
+        let n = u.len() as f64;
+        let (mu, mv) = (u.iter().sum::<f64>() / n, v.iter().sum::<f64>() / n);
+        let (mut suv, mut suu, mut svv) = (0.0, 0.0, 0.0);
+        for (x, y) in u.iter().zip(&v) {
+            suv += (x - mu) * (y - mv);
+            suu += (x - mu).powi(2);
+            svv += (y - mv).powi(2);
+        }
+        suv / (suu * svv).sqrt()
+    }
+
+    /// `qra_init`: how close QRA's scores start to dot-product attention's (issue 17). Zero is
+    /// attention exactly; small is close; the default initialisation is far (printed with
+    /// --nocapture for docs/freezing.md).
+    #[test]
+    fn qra_init_sets_how_close_qra_starts_to_attention() {
+        let device = Device::flex();
+        for (hidden, heads, n) in [(80, 8, 180), (800, 16, 360)] {
+            let mut corr = Vec::new();
+            for init in [QraInit::Default, QraInit::Small, QraInit::Zero] {
+                device.seed(5);
+                let qra = to_f64(QraConfig::new(hidden, heads).with_init(init).init(&device));
+                let plain = zero_convs(qra.clone());
+                let x = f64_normal([1, n, hidden], &device);
+                let positions: Vec<f64> = (0..n).map(|i| i as f64 / n as f64).collect();
+                corr.push(score_correlation(&qra, &plain, x, &positions));
+            }
+            println!(
+                "hidden {hidden}, {heads} heads, {n} tokens: score correlation with attention at init: \
+                 default {:.3}, small {:.3}, zero {:.3}",
+                corr[0], corr[1], corr[2]
+            );
+            assert!((corr[2] - 1.0).abs() < 1e-9, "{corr:?}");
+            assert!(corr[1] > 0.9 && corr[0] < corr[1], "{corr:?}");
+        }
     }
 
     fn pair(hidden: usize, heads: usize, periods: usize, device: &Device) -> (Attention, Qra) {

@@ -10,7 +10,7 @@ use qean_data::windows::AUDIO_DIM;
 use crate::model::DanceGenerator;
 
 /// One model pass: motion [b, motion_len, D] and audio [b, audio_len, 35] (row-major) → the first
-/// output token of each window, [b, D].
+/// `opts.ensemble` output tokens of each window, [b, ensemble, D].
 pub fn first_tokens<M: DanceGenerator>(
     model: &M,
     device: &Device,
@@ -28,8 +28,12 @@ pub fn first_tokens<M: DanceGenerator>(
         TensorData::new(audio.to_vec(), [batch, opts.spec.audio_len, AUDIO_DIM]),
         device,
     );
-    model
-        .generate(m, a)
+    let tokens = if opts.ensemble <= 1 {
+        model.generate(m, a)
+    } else {
+        model.generate_tokens(m, a, opts.ensemble)
+    };
+    tokens
         .into_data()
         .convert::<f32>()
         .try_to_vec::<f32>()

@@ -26,15 +26,27 @@ pub struct SynthArgs {
     /// Sample rate of the music files (30720 Hz is the feature rate: no resampling needed).
     #[arg(long, default_value_t = 30720)]
     pub sample_rate: u32,
+    /// A recording to use as a training music ID's music instead of procedural music, as
+    /// FILE=MUSIC_ID (e.g. song.ogg=mLO0; repeatable); its dances follow the recording's tracked
+    /// beats. `qean demo` uses two.
+    #[arg(long, value_name = "FILE=MUSIC_ID")]
+    pub real_music: Vec<String>,
 }
 
 pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
+    let mut real_music = Vec::new();
+    for spec in &a.real_music {
+        let Some((file, id)) = spec.rsplit_once('=') else {
+            anyhow::bail!("--real-music {spec}: expected FILE=MUSIC_ID, e.g. song.ogg=mLO0");
+        };
+        real_music.push(synth::RealTrack::load(std::path::Path::new(file), id)?);
+    }
     let opts = synth::SynthOptions {
         sequences: a.sequences,
         seconds: a.seconds,
         seed: a.seed,
         sample_rate: a.sample_rate,
-        real_music: Vec::new(),
+        real_music,
     };
     let report = synth::generate(&a.out, &opts)?;
     let count = |s: &str| report.splits.get(s).map_or(0, |v| v.len());

@@ -40,6 +40,7 @@ pub enum Command {
     Sample(sample_cmd::SampleArgs),
     /// AIST++ metrics (FID_k, FID_g, Dist_k, Dist_g, BeatAlign); the same as the `qean-eval` binary.
     Eval(qean_eval::cli::Args),
+    Curves(qean_eval::curves::CurvesArgs),
     Demo(demo_cmd::DemoArgs),
     Bench(bench_cmd::BenchArgs),
 }
@@ -101,6 +102,11 @@ fn run_data(command: Command) -> anyhow::Result<()> {
         Command::Eval(a) => {
             let (_, table) = qean_eval::cli::run(&a)?;
             print!("{table}");
+            Ok(())
+        }
+        Command::Curves(a) => {
+            print!("{}", qean_eval::curves::run(&a)?);
+            println!("figure: {}", a.out.join("curves.png").display());
             Ok(())
         }
         Command::Train(_)

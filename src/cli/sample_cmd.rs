@@ -44,9 +44,13 @@ pub struct SampleArgs {
     /// When the music ends first: stop (mint) or edge (repeat the last music frame).
     #[arg(long, default_value = "stop", value_parser = ["stop", "edge"])]
     pub audio_pad: String,
-    /// Project fed-back rotations to SO(3) (off in the reference).
-    #[arg(long)]
+    /// Project fed-back rotations to SO(3) and zero the pad dims (default: the run's
+    /// recipe.feedback_project; off in mint's reference sampler).
+    #[arg(long, conflicts_with = "raw_feedback")]
     pub feedback_project: bool,
+    /// Feed the raw outputs back unchanged, as mint does (overrides the run's recipe).
+    #[arg(long)]
+    pub raw_feedback: bool,
     /// Output directory (created if missing).
     #[arg(long)]
     pub out: PathBuf,
@@ -90,7 +94,11 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         } else {
             AudioPad::Stop
         },
-        feedback_project: a.feedback_project,
+        feedback_project: if a.feedback_project || a.raw_feedback {
+            a.feedback_project
+        } else {
+            ck.config.recipe.feedback_project
+        },
         render: a.render,
         backend: a.backend.clone().unwrap_or(ck.config.train.backend.clone()),
     };
@@ -107,14 +115,68 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
     })?;
     pb.finish_and_clear();
     println!("checkpoint: {} (step {})", ck.dir.display(), ck.state.step);
+    let reference = energy_reference(&a.run, &ck);
+    let seed_frames = ck.config.model.motion_len;
     for g in &written {
         println!(
             "{}: {} seed + {} generated frames",
-            g.name, ck.config.model.motion_len, g.generated
+            g.name, seed_frames, g.generated
         );
         for p in g.paths.all() {
             println!("  {}", p.display());
         }
+        let frames = qean_eval::run_eval::frames_of(g.joints.clone());
+        let generated = &frames[seed_frames.min(frames.len())..];
+        match &reference {
+            Some(r) if generated.len() >= 3 => {
+                let (_, e) = qean_eval::motion_energy::motion_energy([generated], r);
+                println!("  motion: {}", e.describe(r));
+                let v = e.verdict();
+                if v.froze {
+                    tracing::warn!(
+                        "{}: the dance froze (speed ratio per 5 s {}, {:.0} % of 1-s windows below {:.3} m/s)",
+                        g.name,
+                        e.span_speed_ratios(),
+                        100.0 * e.freeze_fraction,
+                        r.freeze_threshold()
+                    );
+                }
+                if v.jitters {
+                    tracing::warn!(
+                        "{}: the dance jitters (acceleration ratio per 5 s {}, reference {:.2} m/s²)",
+                        g.name,
+                        e.span_accel_ratios(),
+                        r.accel
+                    );
+                }
+            }
+            _ => {
+                let speeds = qean_eval::motion_energy::joint_speeds(generated);
+                let per_span: Vec<String> = speeds
+                    .chunks(qean_eval::motion_energy::SPAN)
+                    .map(|c| format!("{:.2}", c.iter().sum::<f64>() / c.len() as f64))
+                    .collect();
+                println!(
+                    "  motion: speed per 5 s {} m/s (no reference: the run's dataset is not here, so no freeze check)",
+                    per_span.join(", ")
+                );
+            }
+        }
     }
     Ok(0)
+}
+
+/// The training dataset's motion energy (cached in the run directory), if the dataset is here.
+fn energy_reference(
+    run: &std::path::Path,
+    ck: &checkpoint::Checkpoint,
+) -> Option<qean_eval::EnergyReference> {
+    let data = ck.config.data.dir.as_ref().filter(|d| d.is_dir())?;
+    match qean_eval::run_eval::cached_energy_reference(data, &run.join("energy_reference.json")) {
+        Ok(r) => Some(r),
+        Err(e) => {
+            tracing::warn!("no reference motion energy from {}: {e:#}", data.display());
+            None
+        }
+    }
 }

@@ -203,6 +203,10 @@ pub struct SweepArgs {
     /// Override a field in every run (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+    /// Train only these variants (comma-separated names; e.g. to split a sweep over machines or
+    /// cores: the summary then lists these runs only).
+    #[arg(long, value_delimiter = ',')]
+    pub only: Vec<String>,
     /// Print the planned runs and exit.
     #[arg(long)]
     pub dry_run: bool,
@@ -213,7 +217,20 @@ pub struct SweepArgs {
 
 pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
     let overrides = overrides(&a.set, &a.data, &a.backend);
-    let (config, out_dir, runs) = sweep::plan(&a.config, a.out.as_deref(), &overrides)?;
+    let (config, out_dir, mut runs) = sweep::plan(&a.config, a.out.as_deref(), &overrides)?;
+    if !a.only.is_empty() {
+        if let Some(unknown) = a
+            .only
+            .iter()
+            .find(|v| !config.variant.iter().any(|c| &c.name == *v))
+        {
+            bail!(
+                "{}: --only names variant `{unknown}`, which the sweep does not have",
+                a.config.display()
+            );
+        }
+        runs.retain(|r| a.only.contains(&r.variant));
+    }
     println!("{} runs in {}:", runs.len(), out_dir.display());
     for r in &runs {
         println!("  {}  ({})", r.name, r.config.summary());
@@ -226,8 +243,10 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
         stop: stop_flag(),
         ..TrainOptions::new(&out_dir)
     };
+    let frames = config.eval_frames.unwrap_or(1200);
     let evaluator = |run_dir: &Path| -> qean_data::error::Result<Vec<(String, f64)>> {
-        evaluate_checkpoint(run_dir).map_err(|e| qean_data::error::Error::msg(format!("{e:#}")))
+        evaluate_checkpoint(run_dir, frames)
+            .map_err(|e| qean_data::error::Error::msg(format!("{e:#}")))
     };
     let evaluator_ref: Option<&sweep::Evaluator> = if config.evaluate {
         Some(&evaluator)
@@ -245,15 +264,17 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
     Ok(0)
 }
 
-/// The AIST++ metrics of a run's newest checkpoint (checkpoint mode of qean-eval, defaults, on the run's
-/// dataset): the `reference`-mode numbers, comparable with published tables.
-fn evaluate_checkpoint(run_dir: &Path) -> anyhow::Result<Vec<(String, f64)>> {
+/// The AIST++ metrics of a run's newest checkpoint (checkpoint mode of qean-eval with the chance
+/// baselines, on the run's dataset): the `reference`-mode numbers, comparable with published
+/// tables, and the motion energy (speed and acceleration ratios, frozen share).
+fn evaluate_checkpoint(run_dir: &Path, frames: usize) -> anyhow::Result<Vec<(String, f64)>> {
     use clap::Parser;
     let config = RunConfig::load(&run_dir.join("config.toml"), &[]).map_err(|e| anyhow!("{e}"))?;
     let data = config
         .data
         .dir
         .ok_or_else(|| anyhow!("{}: no data.dir", run_dir.display()))?;
+    let frames = frames.to_string();
     let args = qean_eval::cli::Args::try_parse_from([
         "qean-eval".as_ref(),
         "--run".as_ref(),
@@ -262,9 +283,12 @@ fn evaluate_checkpoint(run_dir: &Path) -> anyhow::Result<Vec<(String, f64)>> {
         data.as_os_str(),
         "--metrics-mode".as_ref(),
         "reference".as_ref(),
-    ] as [&std::ffi::OsStr; 7])?;
-    let (file, _) = qean_eval::cli::run(&args)?;
-    let r = file
+        "--max-frames".as_ref(),
+        frames.as_ref(),
+        "--baselines".as_ref(),
+    ] as [&std::ffi::OsStr; 10])?;
+    let (_, _, report) = qean_eval::run_eval::evaluate_run_full(&args, run_dir)?;
+    let r = report
         .reports
         .first()
         .ok_or_else(|| anyhow!("evaluation produced no report"))?;
@@ -276,6 +300,20 @@ fn evaluate_checkpoint(run_dir: &Path) -> anyhow::Result<Vec<(String, f64)>> {
     ];
     if let Some(ba) = r.beat_align {
         out.push(("beat_align".to_string(), ba));
+    }
+    if let Some(e) = &r.motion_energy {
+        out.push(("speed_ratio".to_string(), e.speed_ratio));
+        out.push(("accel_ratio".to_string(), e.accel_ratio));
+        out.push(("freeze_fraction".to_string(), e.freeze_fraction));
+        let min_span = e
+            .spans
+            .iter()
+            .map(|s| s.speed_ratio)
+            .fold(f64::MAX, f64::min);
+        out.push(("min_span_speed_ratio".to_string(), min_span));
+    }
+    if let Some(b) = &report.baselines {
+        out.push(("frozen_fid_k".to_string(), b.frozen.fid_k));
     }
     Ok(out)
 }

@@ -1,12 +1,13 @@
 //! The splits a run trains and validates on: motions in the model's layout and the 35-D music
 //! features from the dataset's feature cache (`DIR/features/`), computed on first use.
 
+use qean_config::recipe::RecipeConfig;
 use qean_data::audio::{self, FeatureOptions};
 use qean_data::dataset::{Dataset, Split};
 use qean_data::error::Result;
 use qean_data::feature_cache;
 use qean_data::motion::Layout;
-use qean_data::windows::{SequenceSet, WindowSpec};
+use qean_data::windows::{SequenceSet, WindowSpec, AUDIO_DIM};
 
 /// Makes sure every music ID of `names` has cached features (the default options of
 /// `qean features --dataset`), computing the missing ones.
@@ -35,13 +36,52 @@ pub fn ensure_features(ds: &Dataset, names: &[String]) -> Result<usize> {
     Ok(computed)
 }
 
-/// One split, ready for windowing.
+/// One split, ready for windowing, its music features as the recipe feeds them to the model.
 pub fn load_split(
     ds: &Dataset,
     split: Split,
     layout: Layout,
     spec: WindowSpec,
+    recipe: &RecipeConfig,
 ) -> Result<SequenceSet> {
     ensure_features(ds, &ds.split(split))?;
-    SequenceSet::load(ds, split, layout, spec, |id| feature_cache::load(ds, id))
+    SequenceSet::load(ds, split, layout, spec, |id| {
+        let (data, frames) = feature_cache::load(ds, id)?;
+        Ok((recipe.model_audio(data, AUDIO_DIM), frames))
+    })
+}
+
+/// Per-column mean and SD of the music features of a split (every frame of each music ID once;
+/// a constant column gets SD 1), for `recipe.audio_norm = "standardize"`.
+pub fn audio_stats(ds: &Dataset, split: Split) -> Result<(Vec<f64>, Vec<f64>)> {
+    let names = ds.split(split);
+    ensure_features(ds, &names)?;
+    let mut sum = [0.0f64; AUDIO_DIM];
+    let mut sq = [0.0f64; AUDIO_DIM];
+    let mut n = 0usize;
+    for id in Dataset::music_ids(&names) {
+        let (data, _) = feature_cache::load(ds, &id)?;
+        for row in data.chunks_exact(AUDIO_DIM) {
+            for (k, &x) in row.iter().enumerate() {
+                sum[k] += x as f64;
+                sq[k] += (x as f64) * (x as f64);
+            }
+            n += 1;
+        }
+    }
+    let n = n.max(1) as f64;
+    let mean: Vec<f64> = sum.iter().map(|s| s / n).collect();
+    let std = sq
+        .iter()
+        .zip(&mean)
+        .map(|(q, m)| {
+            let v = (q / n - m * m).max(0.0).sqrt();
+            if v > 1e-8 {
+                v
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    Ok((mean, std))
 }

@@ -111,6 +111,8 @@ pub struct Generated {
     /// Frames generated after the seed.
     pub generated: usize,
     pub paths: ExportPaths,
+    /// Joint positions of seed and generated frames, frames × 24 (SMPL root), metres.
+    pub joints: Vec<[f64; 3]>,
 }
 
 /// Generates a dance for every song (one batch) from the same seed and writes the exports to
@@ -135,6 +137,9 @@ pub fn generate(
         frames: opts.frames,
         audio_pad: opts.audio_pad,
         feedback_project: opts.feedback_project,
+        offset_output: ck.config.recipe.predict == qean_config::recipe::Predict::Offset,
+        ensemble: ck.config.recipe.ensemble,
+        ensemble_decay: ck.config.recipe.ensemble_decay,
         layout: ck.config.layout(),
         spec: ck.config.window_spec(),
     };
@@ -142,7 +147,10 @@ pub fn generate(
         .iter()
         .map(|s| SampleRequest {
             seed: seed.to_vec(),
-            audio: s.features.data.clone(),
+            audio: ck
+                .config
+                .recipe
+                .model_audio(s.features.data.clone(), AUDIO_DIM),
         })
         .collect();
     for s in songs {
@@ -174,10 +182,14 @@ pub fn generate(
                 root: FkRoot::Smpl,
             },
         )?;
+        let joints = Motion::from_layout(dance, sample_opts.layout)
+            .map_err(|e| Error::msg(format!("generated {}: {e}", song.name)))?
+            .joints(FkRoot::Smpl);
         written.push(Generated {
             name: song.name.clone(),
             generated: dance.len() / d - seed_frames,
             paths,
+            joints,
         });
     }
     Ok(written)

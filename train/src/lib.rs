@@ -9,6 +9,7 @@ pub mod generate;
 pub mod logging;
 pub mod metrics_log;
 pub mod plot;
+pub mod recipe;
 pub use qean_config::run as run_config;
 pub mod run_dir;
 pub use qean_config::schedule;

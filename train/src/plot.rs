@@ -10,7 +10,11 @@ pub fn loss_plot(rows: &[Row], title: &str) -> Canvas {
     let (w, h) = (900usize, 500usize);
     let (left, right, top, bottom) = (70.0, 20.0, 40.0, 50.0);
     let mut c = Canvas::new(w, h, WHITE);
-    c.text(10, 10, title, 2, INK);
+    // The title wrapped beside the legend (a run's summary is long).
+    let per_line = ((w as i64 - 290) / Canvas::text_width("M", 1)).max(10) as usize;
+    for (k, line) in wrap(title, per_line).iter().take(3).enumerate() {
+        c.text(10, 6 + 10 * k as i64, line, 1, INK);
+    }
     let pts = |f: fn(&Row) -> Option<f64>| -> Vec<(f64, f64)> {
         rows.iter()
             .filter_map(|r| {
@@ -84,6 +88,25 @@ pub fn loss_plot(rows: &[Row], title: &str) -> Canvas {
     c
 }
 
+/// Splits `text` at spaces into lines of at most `width` characters (a longer word stands alone).
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    let mut cur = String::new();
+    for word in text.split_whitespace() {
+        if !cur.is_empty() && cur.chars().count() + 1 + word.chars().count() > width {
+            lines.push(std::mem::take(&mut cur));
+        }
+        if !cur.is_empty() {
+            cur.push(' ');
+        }
+        cur.push_str(word);
+    }
+    if !cur.is_empty() {
+        lines.push(cur);
+    }
+    lines
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -105,5 +128,7 @@ mod tests {
         assert_eq!(&c.to_png()[1..4], b"PNG");
         let empty = loss_plot(&[], "EMPTY");
         assert!(!empty.pixels.contains(&LEFT));
+        assert_eq!(wrap("AB CD EF", 5), ["AB CD", "EF"]);
+        assert_eq!(wrap("ABCDEFG H", 3), ["ABCDEFG", "H"]);
     }
 }

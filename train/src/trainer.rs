@@ -13,10 +13,11 @@ use burn::optim::decay::WeightDecayConfig;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use indicatif::{ProgressBar, ProgressStyle};
+use qean_config::recipe::Predict;
 use qean_data::dataset::{Dataset, Split};
 use qean_data::error::{Error, Result};
 use qean_data::windows::{Batch, SequenceSet, WindowSampler};
-use qean_models::loss::motion_loss;
+use qean_models::loss::{difference_loss, motion_loss};
 use qean_models::DanceModel;
 
 use crate::checkpoint::{self, Best, Checkpoint, TrainerState};
@@ -108,19 +109,43 @@ pub fn adam(config: &RunConfig) -> ModuleOptimizer {
     adam.init()
 }
 
+/// Weights of the loss terms beyond SPEC §5.3's L2 (`[recipe]`).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct LossWeights {
+    pub velocity: f64,
+    pub accel: f64,
+}
+
+impl LossWeights {
+    pub fn of(config: &RunConfig) -> Self {
+        LossWeights {
+            velocity: config.recipe.velocity_loss,
+            accel: config.recipe.accel_loss,
+        }
+    }
+}
+
 /// One optimiser update on one batch (motion, audio, target on an autodiff device): forward with
-/// the QRA penalty, the loss of SPEC §5.3, backward, Adam step at `lr`. Returns the updated model
-/// and the loss before the update; a non-finite loss returns the model unchanged.
+/// the QRA penalty, the loss of SPEC §5.3 (plus the recipe's difference terms), backward, Adam
+/// step at `lr`. Returns the updated model and the loss before the update; a non-finite loss
+/// returns the model unchanged.
 pub fn update(
     model: DanceModel,
     optim: &mut ModuleOptimizer,
-    motion: Tensor<3>,
-    audio: Tensor<3>,
-    target: Tensor<3>,
+    (motion, audio, target): (Tensor<3>, Tensor<3>, Tensor<3>),
+    weights: LossWeights,
     lr: f64,
 ) -> (DanceModel, f64) {
     let out = model.forward_with_penalty(motion, audio);
-    let mut loss = motion_loss(out.prediction, target);
+    let mut loss = motion_loss(out.prediction.clone(), target.clone());
+    if weights.velocity > 0.0 {
+        loss = loss
+            + difference_loss(out.prediction.clone(), target.clone(), 1)
+                .mul_scalar(weights.velocity);
+    }
+    if weights.accel > 0.0 {
+        loss = loss + difference_loss(out.prediction, target, 2).mul_scalar(weights.accel);
+    }
     if let Some(p) = out.penalty {
         loss = loss + p;
     }
@@ -140,10 +165,25 @@ fn update_seed(seed: u64, step: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-fn tensors(batch: &Batch, device: &Device) -> (Tensor<3>, Tensor<3>, Tensor<3>) {
+/// Model inputs and the training target of a batch: the future frames, or (`predict =
+/// "offset"`) the future frames minus each window's last input frame.
+fn tensors(batch: &Batch, device: &Device, predict: Predict) -> (Tensor<3>, Tensor<3>, Tensor<3>) {
     let b = batch.len();
     let sp = batch.spec;
     let d = batch.dim;
+    let mut target = batch.target.clone();
+    if predict == Predict::Offset {
+        for i in 0..b {
+            let last = &batch.motion[(i * sp.motion_len + sp.motion_len - 1) * d..][..d];
+            for row in
+                target[i * sp.target_len * d..(i + 1) * sp.target_len * d].chunks_exact_mut(d)
+            {
+                for (x, l) in row.iter_mut().zip(last) {
+                    *x -= l;
+                }
+            }
+        }
+    }
     (
         Tensor::from_data(
             TensorData::new(batch.motion.clone(), [b, sp.motion_len, d]),
@@ -156,20 +196,18 @@ fn tensors(batch: &Batch, device: &Device) -> (Tensor<3>, Tensor<3>, Tensor<3>) 
             ),
             device,
         ),
-        Tensor::from_data(
-            TensorData::new(batch.target.clone(), [b, sp.target_len, d]),
-            device,
-        ),
+        Tensor::from_data(TensorData::new(target, [b, sp.target_len, d]), device),
     )
 }
 
 /// Teacher-forced validation loss (SPEC §5.6): the s = 0 window of every sequence of the split,
-/// no dropout, the mean squared error over all of them.
+/// no dropout, the mean squared error of the predicted poses over all of them.
 pub fn validation_loss(
     model: &DanceModel,
     set: &SequenceSet,
     batch_size: usize,
     device: &Device,
+    predict: Predict,
 ) -> f64 {
     let all = set.first_windows();
     let n = all.len();
@@ -190,7 +228,7 @@ pub fn validation_loss(
             dim: d,
             spec: sp,
         };
-        let (m, a, t) = tensors(&chunk, device);
+        let (m, a, t) = tensors(&chunk, device, predict);
         let loss = motion_loss(model.forward(m, a), t).into_scalar::<f32>() as f64;
         sum += loss * (end - start) as f64;
         start = end;
@@ -310,7 +348,13 @@ impl Session {
     fn validate(&mut self) -> Option<f64> {
         let set = self.val_set.as_ref()?;
         let model = self.model.valid();
-        let v = validation_loss(&model, set, self.config.train.batch_size, &self.plain);
+        let v = validation_loss(
+            &model,
+            set,
+            self.config.train.batch_size,
+            &self.plain,
+            self.config.recipe.predict,
+        );
         self.val_loss = Some(v);
         self.val_step = Some(self.step);
         if v.is_finite() && self.best.is_none_or(|b| v < b.val_loss) {
@@ -542,7 +586,26 @@ fn train_locked(mut config: RunConfig, opts: &TrainOptions) -> Result<TrainOutco
     let spec = config.window_spec();
     let layout = config.layout();
     let train_split: Split = config.data.train_split.parse().map_err(Error::msg)?;
-    let train_set = data::load_split(&ds, train_split, layout, spec)?;
+    if let Some(ck) = resume_from
+        .as_ref()
+        .filter(|_| config.recipe.needs_audio_stats())
+    {
+        // A resumed run keeps the statistics its model was trained with.
+        config.recipe.audio_mean = ck.config.recipe.audio_mean.clone();
+        config.recipe.audio_std = ck.config.recipe.audio_std.clone();
+    }
+    if config.recipe.needs_audio_stats() {
+        let (mean, std) = data::audio_stats(&ds, train_split)?;
+        config.recipe.audio_mean = mean;
+        config.recipe.audio_std = std;
+    }
+    let train_set = data::load_split(
+        &ds,
+        train_split,
+        layout,
+        crate::recipe::draw_spec(&config),
+        &config.recipe,
+    )?;
     let val_set = if config.data.val_split.is_empty() {
         None
     } else {
@@ -551,7 +614,7 @@ fn train_locked(mut config: RunConfig, opts: &TrainOptions) -> Result<TrainOutco
             tracing::warn!("the {} split is empty: no validation", split.name());
             None
         } else {
-            Some(data::load_split(&ds, split, layout, spec)?)
+            Some(data::load_split(&ds, split, layout, spec, &config.recipe)?)
         }
     };
 
@@ -671,11 +734,19 @@ fn run_loop(s: &mut Session, opts: &TrainOptions) -> Result<TrainOutcome> {
             );
             return Ok(outcome(s, true, false, dir));
         }
-        let batch = s.sampler.next_batch(&s.train_set, t.batch_size);
-        let (m, a, target) = tensors(&batch, &s.device);
-        s.device.seed(update_seed(t.seed, s.step));
+        let drawn = s.sampler.next_batch(&s.train_set, t.batch_size);
+        let rng_seed = update_seed(t.seed, s.step);
+        let r = &s.config.recipe;
+        let batch = if r.input_noise == 0.0 && r.lead_frames() == 0 {
+            drawn
+        } else {
+            crate::recipe::apply(&drawn, &s.config, &s.model, &s.plain, rng_seed, s.step).0
+        };
+        let inputs = tensors(&batch, &s.device, s.config.recipe.predict);
+        s.device.seed(rng_seed);
         let lr = s.config.schedule.lr(s.step, total);
-        let (model, value) = update(s.model.clone(), &mut s.optim, m, a, target, lr);
+        let weights = LossWeights::of(&s.config);
+        let (model, value) = update(s.model.clone(), &mut s.optim, inputs, weights, lr);
         if !value.is_finite() {
             reporter.finish();
             return Err(s.diverged(format!("the loss of update {} is {value}", s.step + 1)));

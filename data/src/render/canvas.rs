@@ -3,7 +3,7 @@
 use super::font::{ink, GLYPH_H, GLYPH_W};
 
 /// The fixed palette (RGB); indices are the `Color` constants.
-pub const PALETTE: [[u8; 3]; 10] = [
+pub const PALETTE: [[u8; 3]; 14] = [
     [255, 255, 255], // white
     [20, 20, 20],    // ink
     [150, 150, 150], // grey
@@ -14,6 +14,10 @@ pub const PALETTE: [[u8; 3]; 10] = [
     [60, 60, 60],    // centre limbs
     [250, 235, 205], // beat highlight
     [30, 150, 80],   // green
+    [130, 60, 170],  // purple
+    [20, 150, 160],  // teal
+    [140, 90, 40],   // brown
+    [220, 90, 160],  // pink
 ];
 
 pub type Color = u8;
@@ -27,6 +31,12 @@ pub const ORANGE: Color = 6;
 pub const CENTRE: Color = 7;
 pub const HIGHLIGHT: Color = 8;
 pub const GREEN: Color = 9;
+pub const PURPLE: Color = 10;
+pub const TEAL: Color = 11;
+pub const BROWN: Color = 12;
+pub const PINK: Color = 13;
+/// Distinct colours for plot series, in order.
+pub const SERIES: [Color; 8] = [LEFT, RIGHT, GREEN, ORANGE, PURPLE, TEAL, BROWN, PINK];
 
 #[derive(Debug, Clone)]
 pub struct Canvas {

@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Reproduces the measurements of docs/freezing.md: the demo's synthetic dataset (and a 240-sequence
+# one), the sweeps of configs/sweeps/freezing/, their evaluation and the figures.
+#
+#   tools/freezing_study.sh WORKDIR [QEAN_BINARY]
+#
+# About 9 hours of one CPU core for everything (two sweeps run at once on two cores). Finished
+# runs and evaluations are reused, so the script can be stopped and started again.
+set -euo pipefail
+work=${1:?usage: tools/freezing_study.sh WORKDIR [QEAN_BINARY]}
+root=$(cd "$(dirname "$0")/.." && pwd)
+qean=${2:-$root/target/release/qean}
+sweeps=$root/configs/sweeps/freezing
+music=$root/assets/music
+mkdir -p "$work"
+cd "$work"
+
+# The demo's dataset: 60 sequences of 16 s, two training music IDs replaced by real recordings.
+if [ ! -d data60 ]; then
+  "$qean" synth --out data60 --sequences 60 --seconds 16 --seed 0 \
+    --real-music "$music/sorohanro_-_solo-trumpet-06.ogg=mBR1" \
+    --real-music "$music/Brahms_Hungarian_Dance_5.ogg=mLO0"
+fi
+[ -d data240 ] || "$qean" synth --out data240 --sequences 240 --seconds 16 --seed 0
+"$qean" features --dataset data60
+"$qean" features --dataset data240
+
+# Two sweeps at a time: the CPU backend keeps one core busy per run.
+"$qean" sweep --config "$sweeps/ablation.toml" --data data60 --out ablation --plain \
+  --only mint,dance,dance-no-std,dance-no-noise &
+"$qean" sweep --config "$sweeps/ablation.toml" --data data60 --out ablation --plain \
+  --only dance+rollout,dance+velocity,dance+horizon40 &
+wait
+"$qean" sweep --config "$sweeps/steps.toml" --data data60 --out steps --plain --only mint &
+"$qean" sweep --config "$sweeps/steps.toml" --data data60 --out steps --plain --only dance &
+wait
+"$qean" sweep --config "$sweeps/qean.toml" --data data60 --out qean --plain --only qean,qean-dropout0.1 &
+"$qean" sweep --config "$sweeps/qean.toml" --data data60 --out qean --plain --only qean-qra-small,qean-qra-zero &
+wait
+"$qean" sweep --config "$sweeps/windows.toml" --data data60 --out windows --plain --only w60 &
+"$qean" sweep --config "$sweeps/data.toml" --data data240 --out data240-runs --plain &
+wait
+
+# Evaluation: 900 generated frames per test/val sequence (all of their music), chance baselines.
+eval_runs() { "$qean" curves "$@" --evaluate --data data60 --max-frames 900; }
+eval_runs ablation --steps 4000 --out fig/ablation --title "ABLATION AT 4000 STEPS"
+# Inference remedies on the same checkpoints: raw feedback, one pass per frame.
+for r in ablation/dance-seed*; do
+  "$qean" eval --run "$r" --data data60 --max-frames 900 --metrics-mode reference --baselines \
+    --raw-feedback --ensemble 1 --tag mint-sampling >/dev/null
+  "$qean" eval --run "$r" --data data60 --max-frames 900 --metrics-mode reference --baselines \
+    --ensemble 1 --tag no-ensemble >/dev/null
+  "$qean" eval --run "$r" --data data60 --max-frames 900 --metrics-mode reference --baselines \
+    --raw-feedback --tag raw-feedback >/dev/null
+done
+for r in ablation/mint-seed*; do
+  "$qean" eval --run "$r" --data data60 --max-frames 900 --metrics-mode reference --baselines \
+    --feedback-project --ensemble 8 --tag dance-sampling >/dev/null
+done
+for tag in mint-sampling no-ensemble raw-feedback; do
+  "$qean" curves ablation/dance-seed* --steps 4000 --tag "$tag" --out "fig/dance-$tag"
+done
+"$qean" curves ablation/mint-seed* --steps 4000 --tag dance-sampling --out fig/mint-dance-sampling
+eval_runs steps --steps 500,1000,2000,4000,8000,12000,16000,20000 --out fig/steps \
+  --title "TINY FACT AGAINST TRAINING STEPS (WINDOWS 30/60)"
+eval_runs qean --steps 4000 --out fig/qean --title "TINY QEAN AT 4000 STEPS"
+eval_runs windows ablation/dance-seed* --steps 4000 --out fig/windows --title "WINDOW LENGTHS"
+"$qean" curves data240-runs --evaluate --data data240 --max-frames 900 --steps 4000 --out fig/data240
+echo "figures and tables: $work/fig/*/{curves.png,table.md}"
