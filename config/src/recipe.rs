@@ -7,6 +7,8 @@
 //!
 //! - `input_noise`: Gaussian noise of this σ on the input motion window (model units: rotation
 //!   matrix entries and metres), so the model learns to correct a drifting input;
+//! - `audio_shift`: a random offset per input window and music feature column, so that the
+//!   model does not tie its motion to the exact feature levels of the few training recordings;
 //! - `rollout_frames`, `rollout_mode`, `rollout_prob`, `rollout_ramp`: auto-conditioning /
 //!   scheduled sampling — the last K frames of an input window replaced by the model's own
 //!   predictions (acLSTM's auto-conditioning, seed 002's baseline), for a share of the batch that
@@ -83,6 +85,10 @@ pub struct RecipeConfig {
     pub base: RecipeBase,
     /// σ of the Gaussian noise added to every non-pad input motion value (0 = off).
     pub input_noise: f64,
+    /// σ of a per-window, per-column offset added to the model's music features (their units:
+    /// standard deviations when standardised; 0 = off): a window's music as if from another
+    /// recording, whose feature levels differ.
+    pub audio_shift: f64,
     /// Frames at the end of the input window replaced by the model's own predictions (0 = off).
     pub rollout_frames: usize,
     pub rollout_mode: RolloutMode,
@@ -116,6 +122,7 @@ impl RecipeConfig {
             RecipeBase::Mint => RecipeConfig {
                 base,
                 input_noise: 0.0,
+                audio_shift: 0.0,
                 rollout_frames: 0,
                 rollout_mode: RolloutMode::Block,
                 rollout_prob: 0.0,
@@ -133,6 +140,7 @@ impl RecipeConfig {
             RecipeBase::Dance => RecipeConfig {
                 base,
                 input_noise: 0.02,
+                audio_shift: 0.0,
                 rollout_frames: 0,
                 rollout_mode: RolloutMode::Block,
                 rollout_prob: 0.0,
@@ -155,6 +163,9 @@ impl RecipeConfig {
         let mut on = Vec::new();
         if self.input_noise > 0.0 {
             on.push(format!("input noise {}", self.input_noise));
+        }
+        if self.audio_shift > 0.0 {
+            on.push(format!("music shift {}", self.audio_shift));
         }
         if self.rollout_frames > 0 && self.rollout_prob > 0.0 {
             on.push(format!(
@@ -218,6 +229,7 @@ impl RecipeConfig {
         self.audio_norm == AudioNorm::None
             && self.predict == Predict::Pose
             && self.input_noise == 0.0
+            && self.audio_shift == 0.0
             && (self.rollout_frames == 0 || self.rollout_prob == 0.0)
             && self.velocity_loss == 0.0
             && self.accel_loss == 0.0
@@ -251,6 +263,7 @@ impl RecipeConfig {
     pub fn validate(&self, motion_len: usize, target_len: usize) -> Result<(), String> {
         let nonneg = [
             ("recipe.input_noise", self.input_noise),
+            ("recipe.audio_shift", self.audio_shift),
             ("recipe.velocity_loss", self.velocity_loss),
             ("recipe.accel_loss", self.accel_loss),
         ];
@@ -333,6 +346,7 @@ impl Default for RecipeConfig {
 struct RecipeFile {
     base: Option<RecipeBase>,
     input_noise: Option<f64>,
+    audio_shift: Option<f64>,
     rollout_frames: Option<usize>,
     rollout_mode: Option<RolloutMode>,
     rollout_prob: Option<f64>,
@@ -355,6 +369,7 @@ impl<'de> Deserialize<'de> for RecipeConfig {
         Ok(RecipeConfig {
             base: b.base,
             input_noise: f.input_noise.unwrap_or(b.input_noise),
+            audio_shift: f.audio_shift.unwrap_or(b.audio_shift),
             rollout_frames: f.rollout_frames.unwrap_or(b.rollout_frames),
             rollout_mode: f.rollout_mode.unwrap_or(b.rollout_mode),
             rollout_prob: f.rollout_prob.unwrap_or(b.rollout_prob),

@@ -388,6 +388,21 @@ impl MotionEnergy {
             .join("/")
     }
 
+    /// "dances", "FROZE", "JITTERS", "FROZE and JITTERS", or "too fast" (a 5-s span above
+    /// 1.6 × the reference speed with neither failure).
+    pub fn verdict_word(&self) -> &'static str {
+        if self.dances() {
+            return "dances";
+        }
+        let v = self.verdict();
+        match (v.froze, v.jitters) {
+            (true, true) => "FROZE and JITTERS",
+            (true, false) => "FROZE",
+            (false, true) => "JITTERS",
+            (false, false) => "too fast",
+        }
+    }
+
     /// One line a person reads: speed per 5-s span, acceleration, frozen share, and the verdict.
     pub fn describe(&self, reference: &EnergyReference) -> String {
         let spans: Vec<String> = self
@@ -395,13 +410,7 @@ impl MotionEnergy {
             .iter()
             .map(|s| format!("{:.2}", s.speed))
             .collect();
-        let v = self.verdict();
-        let verdict = match (v.froze, v.jitters) {
-            (false, false) => "dances",
-            (true, false) => "FROZE",
-            (false, true) => "JITTERS",
-            (true, true) => "FROZE and JITTERS",
-        };
+        let verdict = self.verdict_word();
         format!(
             "speed per 5 s {} m/s (reference {:.2}; ratio {:.2}), acceleration {:.1} m/s² (ratio {:.2}), \
              {:.0} % of 1-s windows frozen: {verdict}",

@@ -51,6 +51,13 @@ pub struct SampleArgs {
     /// Feed the raw outputs back unchanged, as mint does (overrides the run's recipe).
     #[arg(long)]
     pub raw_feedback: bool,
+    /// Temporal ensembling: each frame the mean of what the last N passes predicted for it
+    /// (default: the run's recipe.ensemble; 1 = mint's first output token only).
+    #[arg(long)]
+    pub ensemble: Option<usize>,
+    /// Weight e^(−X·k) of the pass k frames back when ensembling (default: the run's recipe).
+    #[arg(long)]
+    pub ensemble_decay: Option<f64>,
     /// Output directory (created if missing).
     #[arg(long)]
     pub out: PathBuf,
@@ -99,6 +106,8 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         } else {
             ck.config.recipe.feedback_project
         },
+        ensemble: a.ensemble.unwrap_or(ck.config.recipe.ensemble),
+        ensemble_decay: a.ensemble_decay.unwrap_or(ck.config.recipe.ensemble_decay),
         render: a.render,
         backend: a.backend.clone().unwrap_or(ck.config.train.backend.clone()),
     };
@@ -139,6 +148,13 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
                         e.span_speed_ratios(),
                         100.0 * e.freeze_fraction,
                         r.freeze_threshold()
+                    );
+                }
+                if !e.dances() && !v.froze && !v.jitters {
+                    tracing::warn!(
+                        "{}: the dance moves too fast (speed ratio per 5 s {}, above 1.6 in a span)",
+                        g.name,
+                        e.span_speed_ratios()
                     );
                 }
                 if v.jitters {

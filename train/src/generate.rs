@@ -100,6 +100,9 @@ pub struct GenerateOptions {
     pub frames: usize,
     pub audio_pad: AudioPad,
     pub feedback_project: bool,
+    /// Temporal ensembling: passes averaged per frame (1 = token 0 only, mint) and their decay.
+    pub ensemble: usize,
+    pub ensemble_decay: f64,
     pub render: bool,
     pub backend: String,
 }
@@ -125,6 +128,19 @@ pub fn generate(
     out: &Path,
     progress: impl FnMut(usize, usize),
 ) -> Result<Vec<Generated>> {
+    let target_len = ck.config.model.target_len;
+    if opts.ensemble == 0 || opts.ensemble > target_len {
+        return Err(Error::msg(format!(
+            "ensemble must be between 1 and the model's target_len ({target_len}), got {}",
+            opts.ensemble
+        )));
+    }
+    if !(opts.ensemble_decay.is_finite() && opts.ensemble_decay >= 0.0) {
+        return Err(Error::msg(format!(
+            "ensemble decay must be a finite number ≥ 0, got {}",
+            opts.ensemble_decay
+        )));
+    }
     // The output directory must be writable before minutes of sampling are spent.
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let probe = qean_data::fsutil::temp_sibling(&out.join("probe"));
@@ -138,8 +154,8 @@ pub fn generate(
         audio_pad: opts.audio_pad,
         feedback_project: opts.feedback_project,
         offset_output: ck.config.recipe.predict == qean_config::recipe::Predict::Offset,
-        ensemble: ck.config.recipe.ensemble,
-        ensemble_decay: ck.config.recipe.ensemble_decay,
+        ensemble: opts.ensemble,
+        ensemble_decay: opts.ensemble_decay,
         layout: ck.config.layout(),
         spec: ck.config.window_spec(),
     };

@@ -1,6 +1,7 @@
 //! The `[recipe]` remedies applied to a training batch (qean-config's `recipe` module says what
 //! each one is for): the model's own rollouts in place of the last ground-truth input frames
-//! (auto-conditioning / scheduled sampling) and noise on the input motion. Every random draw is a
+//! (auto-conditioning / scheduled sampling), noise on the input motion and shifts of the music
+//! features. Every random draw is a
 //! function of (seed, step), so a resumed run repeats them exactly.
 //!
 //! A batch for a run with K rollout frames is drawn with K lead frames: motion GT[s, s+K+Lm),
@@ -97,6 +98,19 @@ pub fn apply(
         for frame in motion.chunks_exact_mut(d) {
             for x in &mut frame[off..] {
                 *x += (r.input_noise * normal(&mut rng)) as f32;
+            }
+        }
+    }
+
+    if r.audio_shift > 0.0 {
+        for window in audio.chunks_exact_mut(al * AUDIO_DIM) {
+            let shift: Vec<f32> = (0..AUDIO_DIM)
+                .map(|_| (r.audio_shift * normal(&mut rng)) as f32)
+                .collect();
+            for row in window.chunks_exact_mut(AUDIO_DIM) {
+                for (x, s) in row.iter_mut().zip(&shift) {
+                    *x += s;
+                }
             }
         }
     }
@@ -372,5 +386,38 @@ mod tests {
         let sd = (diffs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt();
         assert!(mean.abs() < 0.01 && (sd - 0.1).abs() < 0.01, "{mean} {sd}");
         assert_ne!(apply(&d, &c, &model, &device, 4, 0).0, out);
+    }
+
+    #[test]
+    fn music_shift_is_one_offset_per_window_and_column() {
+        let c = config(RecipeConfig {
+            audio_shift: 0.5,
+            ..RecipeConfig::default()
+        });
+        let device = Device::flex();
+        let model = DanceModel::new(&c.model, &device);
+        let d = drawn(&c, 8);
+        let (out, _) = apply(&d, &c, &model, &device, 5, 0);
+        assert_eq!(out.motion, d.motion);
+        let al = c.window_spec().audio_len;
+        let mut shifts = Vec::new();
+        for (w, (a, b)) in out
+            .audio
+            .chunks_exact(al * AUDIO_DIM)
+            .zip(d.audio.chunks_exact(al * AUDIO_DIM))
+            .enumerate()
+        {
+            for k in 0..AUDIO_DIM {
+                let first = a[k] - b[k];
+                for t in 1..al {
+                    let i = t * AUDIO_DIM + k;
+                    assert!((a[i] - b[i] - first).abs() < 1e-4, "window {w} column {k}");
+                }
+                shifts.push(first as f64);
+            }
+        }
+        let n = shifts.len() as f64;
+        let sd = (shifts.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
+        assert!((sd - 0.5).abs() < 0.1, "{sd}");
     }
 }
