@@ -66,4 +66,24 @@ eval_runs steps --steps 500,1000,2000,4000,8000,12000,16000,20000 --out fig/step
 eval_runs qean --steps 4000 --out fig/qean --title "TINY QEAN AT 4000 STEPS"
 eval_runs windows ablation/dance-seed* --steps 4000 --out fig/windows --title "WINDOW LENGTHS"
 "$qean" curves data240-runs --evaluate --data data240 --max-frames 900 --steps 4000 --out fig/data240
+"$qean" curves ablation/dance-seed* ablation/mint-seed* --evaluate --data data60 --max-frames 900 \
+  --out fig/ablation-steps --title "TINY FACT, WINDOWS 30/60, 3 SEEDS"
+
+# docs/freezing.md section 5: the four tiny QEAN rows trained as the demo trains, and their
+# dances to the held-out real song and to a training recording (speed per 5 s printed by sample).
+demo_set=(--set model.motion_len=30 --set model.audio_len=60 --set train.steps=4000
+  --set "schedule.boundaries=[3000]" --set train.checkpoint_every=1000 --set train.val_every=1000
+  --set train.batch_size=8)
+for row in baseline spe qra full; do
+  for seed in 0 1; do
+    run=heldout/$row-seed$seed
+    [ -d "$run/checkpoints/step-4000" ] ||
+      "$qean" train --config "$root/configs/tiny/$row.toml" --data data60 --run-dir "$run" --plain \
+        "${demo_set[@]}" --set train.seed=$seed
+    for song in "$music/Kevin_MacLeod_-_Vibe_Ace.ogg" "$music/Brahms_Hungarian_Dance_5.ogg"; do
+      "$qean" sample --run "$run" --music "$song" --data data60 \
+        --sequence gBR_sBM_cAll_d04_mBR0_ch02 --out "$run/dances"
+    done
+  done
+done
 echo "figures and tables: $work/fig/*/{curves.png,table.md}"
