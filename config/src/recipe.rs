@@ -140,20 +140,10 @@ impl RecipeConfig {
             RecipeBase::Dance => RecipeConfig {
                 base,
                 input_noise: 0.02,
-                audio_shift: 0.0,
-                rollout_frames: 0,
-                rollout_mode: RolloutMode::Block,
-                rollout_prob: 0.0,
-                rollout_ramp: [0, 0],
-                velocity_loss: 0.0,
-                accel_loss: 0.0,
                 feedback_project: true,
                 audio_norm: AudioNorm::Standardize,
-                audio_mean: Vec::new(),
-                audio_std: Vec::new(),
-                predict: Predict::Pose,
                 ensemble: 8,
-                ensemble_decay: 0.0,
+                ..Self::of(RecipeBase::Mint)
             },
         }
     }
@@ -205,6 +195,16 @@ impl RecipeConfig {
             format!("recipe {base}: {}", on.join(", "))
         }
         .to_lowercase()
+    }
+
+    /// Whether the sampler projects fed-back frames, given a command line's `--feedback-project`
+    /// and `--raw-feedback` (either overrides this recipe's `feedback_project`).
+    pub fn feedback_project_with(&self, project: bool, raw: bool) -> bool {
+        if project || raw {
+            project
+        } else {
+            self.feedback_project
+        }
     }
 
     /// Whether the music features still need their statistics.
@@ -301,18 +301,11 @@ impl RecipeConfig {
         {
             return Err("recipe.velocity_loss needs model.target_len ≥ 2 (accel_loss ≥ 3)".into());
         }
-        if self.ensemble == 0 || self.ensemble > target_len {
-            return Err(format!(
-                "recipe.ensemble must be between 1 and model.target_len = {target_len}, got {}",
-                self.ensemble
-            ));
-        }
-        if !(self.ensemble_decay.is_finite() && self.ensemble_decay >= 0.0) {
-            return Err(format!(
-                "recipe.ensemble_decay must be ≥ 0, got {}",
-                self.ensemble_decay
-            ));
-        }
+        check_ensemble(
+            ("recipe.ensemble", self.ensemble),
+            ("recipe.ensemble_decay", self.ensemble_decay),
+            target_len,
+        )?;
         if self.audio_mean.len() != self.audio_std.len() {
             return Err(format!(
                 "recipe.audio_mean has {} values but recipe.audio_std {}",
@@ -332,6 +325,26 @@ impl RecipeConfig {
         }
         Ok(())
     }
+}
+
+/// Checks temporal-ensembling settings (each named as its caller's user spells it): 1 to
+/// `target_len` passes (a pass predicts `target_len` frames) and a finite decay ≥ 0.
+pub fn check_ensemble(
+    (ensemble_name, ensemble): (&str, usize),
+    (decay_name, decay): (&str, f64),
+    target_len: usize,
+) -> Result<(), String> {
+    if ensemble == 0 || ensemble > target_len {
+        return Err(format!(
+            "{ensemble_name} must be between 1 and the model's target_len ({target_len}), got {ensemble}"
+        ));
+    }
+    if !(decay.is_finite() && decay >= 0.0) {
+        return Err(format!(
+            "{decay_name} must be a finite number ≥ 0, got {decay}"
+        ));
+    }
+    Ok(())
 }
 
 impl Default for RecipeConfig {

@@ -361,43 +361,33 @@ pub fn figure(runs: &[RunCurve], title: &str) -> Canvas {
     let mut c = Canvas::new(w, h, WHITE);
     c.text(12, 10, title, 2, INK);
     let (pw, ph) = (470.0, 300.0);
-    let cells = [(90.0, 70.0), (680.0, 70.0), (90.0, 460.0), (680.0, 460.0)];
-    panel(
-        &mut c,
-        (cells[0].0, cells[0].1, pw, ph),
-        "SPEED RATIO (TARGET 0.6-1.6)",
-        runs,
-        |p| p.speed_ratio,
-        Some((0.6, 1.6)),
-        Some(5.0),
-    );
-    panel(
-        &mut c,
-        (cells[1].0, cells[1].1, pw, ph),
-        "ACCEL RATIO (TARGET 2 OR LESS)",
-        runs,
-        |p| p.accel_ratio,
-        Some((0.0, 2.0)),
-        Some(25.0),
-    );
-    panel(
-        &mut c,
-        (cells[2].0, cells[2].1, pw, ph),
-        "FREEZE FRACTION (TARGET 0.1 OR LESS)",
-        runs,
-        |p| p.freeze_fraction,
-        Some((0.0, 0.1)),
-        Some(1.0),
-    );
-    panel(
-        &mut c,
-        (cells[3].0, cells[3].1, pw, ph),
-        "FID_K",
-        runs,
-        |p| p.fid_k,
-        None,
-        None,
-    );
+    // Title, value, target band and y-axis cap of each panel, left to right, top to bottom.
+    type Get = fn(&Point) -> f64;
+    let panels: [(&str, Get, Option<(f64, f64)>, Option<f64>); 4] = [
+        (
+            "SPEED RATIO (TARGET 0.6-1.6)",
+            |p| p.speed_ratio,
+            Some((0.6, 1.6)),
+            Some(5.0),
+        ),
+        (
+            "ACCEL RATIO (TARGET 2 OR LESS)",
+            |p| p.accel_ratio,
+            Some((0.0, 2.0)),
+            Some(25.0),
+        ),
+        (
+            "FREEZE FRACTION (TARGET 0.1 OR LESS)",
+            |p| p.freeze_fraction,
+            Some((0.0, 0.1)),
+            Some(1.0),
+        ),
+        ("FID_K", |p| p.fid_k, None, None),
+    ];
+    for (k, (title, get, band, cap)) in panels.into_iter().enumerate() {
+        let (x0, y0) = (90.0 + 590.0 * (k % 2) as f64, 70.0 + 390.0 * (k / 2) as f64);
+        panel(&mut c, (x0, y0, pw, ph), title, runs, get, band, cap);
+    }
     c.text(
         12,
         808,

@@ -63,17 +63,13 @@ fn norm3(a: [f64; 3]) -> f64 {
     (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
 }
 
-fn mean(v: &[f64]) -> Option<f64> {
-    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-}
-
 /// Mean speed of each 1-s window of a speed series (a short series is one window).
 pub fn window_speeds(speeds: &[f64]) -> Vec<f64> {
     if speeds.is_empty() {
         return Vec::new();
     }
     if speeds.len() < WINDOW {
-        return vec![mean(speeds).unwrap_or(0.0)];
+        return vec![average(speeds.iter().sum(), speeds.len())];
     }
     speeds
         .chunks_exact(WINDOW)
@@ -113,35 +109,24 @@ pub struct EnergyReference {
 impl EnergyReference {
     /// Statistics of a reference set (sequences of at least 3 frames count; others are skipped).
     pub fn fit<'a>(sequences: impl IntoIterator<Item = &'a [Frame]>) -> EnergyReference {
-        let (mut ssum, mut scount, mut asum, mut acount, mut n) = (0.0, 0usize, 0.0, 0usize, 0);
+        let mut pooled = Acc::default();
         let mut windows = Vec::new();
+        let mut n = 0;
         for joints in sequences {
             if joints.len() < 3 {
                 continue;
             }
             let s = joint_speeds(joints);
-            let a = joint_accels(joints);
-            ssum += s.iter().sum::<f64>();
-            scount += s.len();
-            asum += a.iter().sum::<f64>();
-            acount += a.len();
+            pooled.add_samples(&s, &joint_accels(joints));
             windows.extend(window_speeds(&s));
             n += 1;
         }
         EnergyReference {
-            speed: if scount > 0 {
-                ssum / scount as f64
-            } else {
-                0.0
-            },
-            accel: if acount > 0 {
-                asum / acount as f64
-            } else {
-                0.0
-            },
+            speed: pooled.speed(),
+            accel: pooled.accel(),
             median_window_speed: median(&windows),
             sequences: n,
-            samples: scount,
+            samples: pooled.speed_n,
         }
     }
 
@@ -194,11 +179,17 @@ struct Acc {
 }
 
 impl Acc {
-    fn add(&mut self, speeds: &[f64], accels: &[f64], threshold: f64) {
+    /// Adds the speed and acceleration samples only.
+    fn add_samples(&mut self, speeds: &[f64], accels: &[f64]) {
         self.speed_sum += speeds.iter().sum::<f64>();
         self.speed_n += speeds.len();
         self.accel_sum += accels.iter().sum::<f64>();
         self.accel_n += accels.len();
+    }
+
+    /// Adds the samples and counts the 1-s windows below `threshold`.
+    fn add(&mut self, speeds: &[f64], accels: &[f64], threshold: f64) {
+        self.add_samples(speeds, accels);
         for w in window_speeds(speeds) {
             self.windows += 1;
             if w < threshold {
@@ -207,28 +198,35 @@ impl Acc {
         }
     }
 
+    /// Pools another's sums into this one.
+    fn merge(&mut self, other: &Acc) {
+        self.speed_sum += other.speed_sum;
+        self.speed_n += other.speed_n;
+        self.accel_sum += other.accel_sum;
+        self.accel_n += other.accel_n;
+        self.windows += other.windows;
+        self.frozen += other.frozen;
+    }
+
     fn speed(&self) -> f64 {
-        if self.speed_n > 0 {
-            self.speed_sum / self.speed_n as f64
-        } else {
-            0.0
-        }
+        average(self.speed_sum, self.speed_n)
     }
 
     fn accel(&self) -> f64 {
-        if self.accel_n > 0 {
-            self.accel_sum / self.accel_n as f64
-        } else {
-            0.0
-        }
+        average(self.accel_sum, self.accel_n)
     }
 
     fn freeze(&self) -> f64 {
-        if self.windows > 0 {
-            self.frozen as f64 / self.windows as f64
-        } else {
-            0.0
-        }
+        average(self.frozen as f64, self.windows)
+    }
+}
+
+/// sum / n, or 0 for no samples.
+fn average(sum: f64, n: usize) -> f64 {
+    if n > 0 {
+        sum / n as f64
+    } else {
+        0.0
     }
 }
 
@@ -306,20 +304,9 @@ pub fn motion_energy<'a>(
             if set_spans.len() <= k {
                 set_spans.push(Acc::default());
             }
-            let t = &mut set_spans[k];
-            t.speed_sum += sp.speed_sum;
-            t.speed_n += sp.speed_n;
-            t.accel_sum += sp.accel_sum;
-            t.accel_n += sp.accel_n;
-            t.windows += sp.windows;
-            t.frozen += sp.frozen;
+            set_spans[k].merge(sp);
         }
-        total.speed_sum += own.speed_sum;
-        total.speed_n += own.speed_n;
-        total.accel_sum += own.accel_sum;
-        total.accel_n += own.accel_n;
-        total.windows += own.windows;
-        total.frozen += own.frozen;
+        total.merge(&own);
         per_sequence.push(finish(&own, &spans, reference));
     }
     let mut set = finish(&total, &set_spans, reference);

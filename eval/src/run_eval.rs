@@ -311,24 +311,21 @@ pub fn evaluate_run_full(
         } else {
             AudioPad::Stop
         },
-        feedback_project: if args.feedback_project || args.raw_feedback {
-            args.feedback_project
-        } else {
-            config.recipe.feedback_project
-        },
+        feedback_project: config
+            .recipe
+            .feedback_project_with(args.feedback_project, args.raw_feedback),
         offset_output: config.recipe.predict == qean_config::recipe::Predict::Offset,
         ensemble: args.ensemble.unwrap_or(config.recipe.ensemble),
         ensemble_decay: args.ensemble_decay.unwrap_or(config.recipe.ensemble_decay),
         layout,
         spec: config.window_spec(),
     };
-    if opts.ensemble == 0 || opts.ensemble > config.model.target_len {
-        bail!(
-            "--ensemble must be between 1 and the model's target_len ({}), got {}",
-            config.model.target_len,
-            opts.ensemble
-        );
-    }
+    qean_config::recipe::check_ensemble(
+        ("--ensemble", opts.ensemble),
+        ("--ensemble-decay", opts.ensemble_decay),
+        config.model.target_len,
+    )
+    .map_err(anyhow::Error::msg)?;
     let backend = args
         .backend
         .clone()

@@ -101,11 +101,10 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         } else {
             AudioPad::Stop
         },
-        feedback_project: if a.feedback_project || a.raw_feedback {
-            a.feedback_project
-        } else {
-            ck.config.recipe.feedback_project
-        },
+        feedback_project: ck
+            .config
+            .recipe
+            .feedback_project_with(a.feedback_project, a.raw_feedback),
         ensemble: a.ensemble.unwrap_or(ck.config.recipe.ensemble),
         ensemble_decay: a.ensemble_decay.unwrap_or(ck.config.recipe.ensemble_decay),
         render: a.render,

@@ -128,19 +128,12 @@ pub fn generate(
     out: &Path,
     progress: impl FnMut(usize, usize),
 ) -> Result<Vec<Generated>> {
-    let target_len = ck.config.model.target_len;
-    if opts.ensemble == 0 || opts.ensemble > target_len {
-        return Err(Error::msg(format!(
-            "ensemble must be between 1 and the model's target_len ({target_len}), got {}",
-            opts.ensemble
-        )));
-    }
-    if !(opts.ensemble_decay.is_finite() && opts.ensemble_decay >= 0.0) {
-        return Err(Error::msg(format!(
-            "ensemble decay must be a finite number ≥ 0, got {}",
-            opts.ensemble_decay
-        )));
-    }
+    qean_config::recipe::check_ensemble(
+        ("ensemble", opts.ensemble),
+        ("ensemble decay", opts.ensemble_decay),
+        ck.config.model.target_len,
+    )
+    .map_err(Error::msg)?;
     // The output directory must be writable before minutes of sampling are spent.
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let probe = qean_data::fsutil::temp_sibling(&out.join("probe"));
