@@ -47,6 +47,24 @@ fn normal(rng: &mut ChaCha8Rng) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
+/// The batch the model trains on: `drawn` itself when the recipe changes no input (no noise, no
+/// music shift, no rollout lead frames), else [`apply`]'s.
+pub fn model_inputs(
+    drawn: Batch,
+    config: &RunConfig,
+    model: &DanceModel,
+    plain: &Device,
+    rng_seed: u64,
+    step: u64,
+) -> Batch {
+    let r = &config.recipe;
+    if r.input_noise == 0.0 && r.audio_shift == 0.0 && r.lead_frames() == 0 {
+        drawn
+    } else {
+        apply(&drawn, config, model, plain, rng_seed, step).0
+    }
+}
+
 /// The model inputs of a drawn batch under the recipe: a batch with the model's window lengths.
 /// `model` is the training model (rollouts run on its inference copy, without dropout).
 #[allow(clippy::too_many_arguments)]

@@ -736,12 +736,8 @@ fn run_loop(s: &mut Session, opts: &TrainOptions) -> Result<TrainOutcome> {
         }
         let drawn = s.sampler.next_batch(&s.train_set, t.batch_size);
         let rng_seed = update_seed(t.seed, s.step);
-        let r = &s.config.recipe;
-        let batch = if r.input_noise == 0.0 && r.audio_shift == 0.0 && r.lead_frames() == 0 {
-            drawn
-        } else {
-            crate::recipe::apply(&drawn, &s.config, &s.model, &s.plain, rng_seed, s.step).0
-        };
+        let batch =
+            crate::recipe::model_inputs(drawn, &s.config, &s.model, &s.plain, rng_seed, s.step);
         let inputs = tensors(&batch, &s.device, s.config.recipe.predict);
         s.device.seed(rng_seed);
         let lr = s.config.schedule.lr(s.step, total);
