@@ -362,8 +362,13 @@ pub fn figure(runs: &[RunCurve], title: &str) -> Canvas {
     c.text(12, 10, title, 2, INK);
     let (pw, ph) = (470.0, 300.0);
     // Title, value, target band and y-axis cap of each panel, left to right, top to bottom.
-    type Get = fn(&Point) -> f64;
-    let panels: [(&str, Get, Option<(f64, f64)>, Option<f64>); 4] = [
+    type Panel = (
+        &'static str,
+        fn(&Point) -> f64,
+        Option<(f64, f64)>,
+        Option<f64>,
+    );
+    let panels: [Panel; 4] = [
         (
             "SPEED RATIO (TARGET 0.6-1.6)",
             |p| p.speed_ratio,
