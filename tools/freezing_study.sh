@@ -15,14 +15,16 @@ music=$root/assets/music
 mkdir -p "$work"
 cd "$work"
 
-# The demo's dataset: 60 sequences of 16 s, two training music IDs replaced by real recordings.
-if [ ! -d data60 ]; then
-  "$qean" synth --out data60 --sequences 60 --seconds 16 --seed 0 \
-    --real-music "$music/sorohanro_-_solo-trumpet-06.ogg=mBR1" \
-    --real-music "$music/Brahms_Hungarian_Dance_5.ogg=mLO0"
-fi
-[ -d data240 ] || "$qean" synth --out data240 --sequences 240 --seconds 16 --seed 0
+# Sections 1-4: 60 sequences of 16 s with plain procedural music (as the demo made them before
+# varied music), two training music IDs replaced by real recordings. data60v is the demo's
+# dataset now: the same with varied music (loudness, mix, drum sections; section 5).
+real=(--real-music "$music/sorohanro_-_solo-trumpet-06.ogg=mBR1"
+  --real-music "$music/Brahms_Hungarian_Dance_5.ogg=mLO0")
+[ -d data60 ] || "$qean" synth --out data60 --sequences 60 --seconds 16 --seed 0 --plain-music "${real[@]}"
+[ -d data60v ] || "$qean" synth --out data60v --sequences 60 --seconds 16 --seed 0 "${real[@]}"
+[ -d data240 ] || "$qean" synth --out data240 --sequences 240 --seconds 16 --seed 0 --plain-music
 "$qean" features --dataset data60
+"$qean" features --dataset data60v
 "$qean" features --dataset data240
 
 # Two sweeps at a time: the CPU backend keeps one core busy per run.
@@ -31,11 +33,11 @@ fi
 "$qean" sweep --config "$sweeps/ablation.toml" --data data60 --out ablation --plain \
   --only dance+rollout,dance+velocity,dance+horizon40 &
 wait
-"$qean" sweep --config "$sweeps/steps.toml" --data data60 --out steps --plain --only mint &
-"$qean" sweep --config "$sweeps/steps.toml" --data data60 --out steps --plain --only dance &
+"$qean" sweep --config "$sweeps/steps.toml" --data data60v --out steps --plain &
+"$qean" sweep --config "$sweeps/qean.toml" --data data60v --out qean --plain --only fact,qean &
 wait
-"$qean" sweep --config "$sweeps/qean.toml" --data data60 --out qean --plain --only qean,qean-dropout0.1 &
-"$qean" sweep --config "$sweeps/qean.toml" --data data60 --out qean --plain --only qean-qra-small,qean-qra-zero &
+"$qean" sweep --config "$sweeps/qean.toml" --data data60v --out qean --plain --only qean-qra-small,qean-qra-zero &
+"$qean" sweep --config "$sweeps/qean.toml" --data data60v --out qean --plain --only qean-dropout0.1 &
 wait
 "$qean" sweep --config "$sweeps/windows.toml" --data data60 --out windows --plain --only w60 &
 "$qean" sweep --config "$sweeps/data.toml" --data data240 --out data240-runs --plain &
@@ -61,9 +63,11 @@ for tag in mint-sampling no-ensemble raw-feedback; do
   "$qean" curves ablation/dance-seed* --steps 4000 --tag "$tag" --out "fig/dance-$tag"
 done
 "$qean" curves ablation/mint-seed* --steps 4000 --tag dance-sampling --out fig/mint-dance-sampling
-eval_runs steps --steps 500,1000,2000,4000,8000,12000,16000,20000 --out fig/steps \
-  --title "TINY FACT AGAINST TRAINING STEPS (WINDOWS 30/60)"
-eval_runs qean --steps 4000 --out fig/qean --title "TINY QEAN AT 4000 STEPS"
+"$qean" curves steps --evaluate --data data60v --max-frames 900 \
+  --steps 500,1000,2000,4000,8000,12000,16000,20000 --out fig/steps \
+  --title "TINY FACT AGAINST TRAINING STEPS (WINDOWS 30/60, VARIED MUSIC)"
+"$qean" curves qean --evaluate --data data60v --max-frames 600 --steps 4000 --out fig/qean \
+  --title "TINY FACT AND QEAN AT 4000 STEPS (VARIED MUSIC)"
 eval_runs windows ablation/dance-seed* --steps 4000 --out fig/windows --title "WINDOW LENGTHS"
 "$qean" curves data240-runs --evaluate --data data240 --max-frames 900 --steps 4000 --out fig/data240
 "$qean" curves ablation/dance-seed* ablation/mint-seed* --evaluate --data data60 --max-frames 900 \
@@ -84,6 +88,24 @@ for row in baseline spe qra full; do
       "$qean" sample --run "$run" --music "$song" --data data60 \
         --sequence gBR_sBM_cAll_d04_mBR0_ch02 --out "$run/dances"
     done
+  done
+done
+# Section 5 with varied music: the held-out dances of the three FACT and QEAN seeds, and the
+# QEAN variants tried against its decay.
+for run in qean/fact-seed* qean/qean-seed*; do
+  "$qean" sample --run "$run" --music "$music/Kevin_MacLeod_-_Vibe_Ace.ogg" --data data60v \
+    --sequence gBR_sBM_cAll_d04_mBR0_ch02 --out "$run/dances"
+done
+variants=("keep-abs model.keep_abs_pos=true" "base100 model.rope_base=100"
+  "concat model.cross_positions=\"concatenated\"" "no-noise recipe.input_noise=0.0")
+for v in "${variants[@]}"; do
+  run=heldout-v/${v%% *}
+  [ -d "$run/checkpoints/step-4000" ] ||
+    "$qean" train --config "$root/configs/tiny/full.toml" --data data60v --run-dir "$run" --plain \
+      "${demo_set[@]}" --set "${v#* }"
+  for song in "$music/Kevin_MacLeod_-_Vibe_Ace.ogg" "$music/Brahms_Hungarian_Dance_5.ogg"; do
+    "$qean" sample --run "$run" --music "$song" --data data60v \
+      --sequence gBR_sBM_cAll_d04_mBR0_ch02 --out "$run/dances"
   done
 done
 echo "figures and tables: $work/fig/*/{curves.png,table.md}"

@@ -424,6 +424,7 @@ mod tests {
             seed: 2,
             sample_rate: 8000,
             real_music: Vec::new(),
+            varied_music: false,
         };
         crate::synth::generate(&dir, &opts).unwrap();
         let ds = Dataset::open(&dir).unwrap();

@@ -8,6 +8,8 @@ use qean_eval::cli::RootArg;
 
 /// Make a synthetic dataset in the AIST++ layout: procedural music per music ID (WAV) and procedural dances
 /// phase-locked to it (motion pickles), with train/val/test split lists following the AIST++ naming rules.
+/// Each track's loudness, mix and drum sections vary (quiet intros, breakdowns) while its dances keep
+/// their energy, so a model learns to dance to the beat and the chords, not to a loudness level.
 /// Deterministic for a given seed.
 #[derive(Args, Debug)]
 pub struct SynthArgs {
@@ -31,6 +33,11 @@ pub struct SynthArgs {
     /// beats. `qean demo` uses two.
     #[arg(long, value_name = "FILE=MUSIC_ID")]
     pub real_music: Vec<String>,
+    /// Plain procedural music: every track at full loudness with drums throughout, as datasets
+    /// made before varied music (the default varies loudness, mix and drum sections per track,
+    /// which the dances ignore; docs/freezing.md, section 5).
+    #[arg(long)]
+    pub plain_music: bool,
 }
 
 pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
@@ -47,6 +54,7 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
         seed: a.seed,
         sample_rate: a.sample_rate,
         real_music,
+        varied_music: !a.plain_music,
     };
     let report = synth::generate(&a.out, &opts)?;
     let count = |s: &str| report.splits.get(s).map_or(0, |v| v.len());

@@ -51,6 +51,9 @@ pub struct SynthOptions {
     /// Real recordings that replace the procedural track of some music IDs (the dances then follow the
     /// recordings' tracked beats).
     pub real_music: Vec<RealTrack>,
+    /// Vary each procedural track's loudness, mix and drum sections ([`music::Arrangement`]);
+    /// false gives the plain tracks of datasets made before (docs/freezing.md, section 5).
+    pub varied_music: bool,
 }
 
 /// A real recording standing in for one music ID's procedural track.
@@ -91,6 +94,7 @@ impl Default for SynthOptions {
             seed: 0,
             sample_rate: 30720,
             real_music: Vec::new(),
+            varied_music: true,
         }
     }
 }
@@ -101,6 +105,7 @@ pub struct SynthReport {
     pub seed: u64,
     pub seconds: f64,
     pub sample_rate: u32,
+    pub varied_music: bool,
     pub splits: BTreeMap<String, Vec<String>>,
     /// Per music ID: tempo, first beat (s) and the phrase chords.
     pub music: BTreeMap<String, MusicInfo>,
@@ -112,6 +117,9 @@ pub struct MusicInfo {
     pub first_beat: f64,
     pub seconds: f64,
     pub phrase_chords: Vec<usize>,
+    /// Loudness, mix and drum sections of a varied procedural track.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub arrangement: Option<music::Arrangement>,
     /// The recording used instead of procedural music, if any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub source: Option<String>,
@@ -242,7 +250,12 @@ fn write_dataset(
         let mut rng = ChaCha8Rng::seed_from_u64(opts.seed ^ fnv(id));
         let bpm = tempo_prior(id).expect("planned IDs are valid");
         let genre = &id[1..3];
-        let spec = MusicSpec::random(&mut rng, bpm, groove_of(genre), music_seconds);
+        let mut spec = MusicSpec::random(&mut rng, bpm, groove_of(genre), music_seconds);
+        if opts.varied_music {
+            // Its own stream: the plain tracks stay what they were.
+            let mut arr_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ fnv(id) ^ fnv("arrangement"));
+            spec.arrangement = music::Arrangement::random(&mut arr_rng, spec.phrases());
+        }
         let path = dir.join("wav").join(format!("{id}.wav"));
         let track = match opts.real_music.iter().find(|t| &t.music_id == id) {
             Some(real) => write_real_track(&path, real, spec, music_seconds, opts.sample_rate)?,
@@ -255,6 +268,7 @@ fn write_dataset(
                         bpm: spec.bpm,
                         first_beat: spec.first_beat,
                         seconds: spec.seconds,
+                        arrangement: opts.varied_music.then(|| spec.arrangement.clone()),
                         phrase_chords: spec.phrase_chords,
                         source: None,
                     },
@@ -298,6 +312,7 @@ fn write_dataset(
         seed: opts.seed,
         seconds: opts.seconds,
         sample_rate: opts.sample_rate,
+        varied_music: opts.varied_music,
         splits: plan
             .iter()
             .map(|(s, n)| (s.name().to_string(), n.clone()))
@@ -362,6 +377,7 @@ fn write_real_track(
             first_beat: beat_times[0],
             seconds,
             phrase_chords: spec.phrase_chords,
+            arrangement: None,
             source: Some(real.source.clone()),
         },
         beat_times,
@@ -465,6 +481,7 @@ mod tests {
             seed: 11,
             sample_rate: 8000,
             real_music: Vec::new(),
+            varied_music: true,
         };
         let a = root.path().join("a");
         let b = root.path().join("b");

@@ -1,6 +1,12 @@
 //! Procedural music for the synthetic dataset: a drum/bass/chord pattern at a fixed tempo whose chord changes
 //! every 8-beat phrase. The phrase's chord is what the synthetic dances follow, so a model can learn
 //! music → dance from the chroma and beat columns of the audio features.
+//!
+//! An [`Arrangement`] varies what real songs vary and the dances do not follow: the loudness (a gain
+//! ramp over the track), the mix (drums, bass, pad levels), sustained strings and a noise floor (no
+//! silent gaps between hits), and phrases where the drums drop out or play softly (intros,
+//! breakdowns). A model trained on plain tracks ties its motion to their exact loudness and
+//! drum level and stands still when a real song starts quietly (docs/freezing.md, section 5).
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -35,6 +41,70 @@ pub struct MusicSpec {
     pub phrase_chords: Vec<usize>,
     pub groove: Groove,
     pub seconds: f64,
+    /// Loudness, mix and drum sections (plain: every phrase the same, peak at 0.8).
+    pub arrangement: Arrangement,
+}
+
+/// How a track's loudness and mix vary; the dances ignore all of it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Arrangement {
+    /// Gain (dB, after peak normalisation to 0.8) at the start and the end of the track, linear
+    /// in dB between them.
+    pub gain_db: [f64; 2],
+    /// Level of the drums, the bass and the per-beat chord pad.
+    pub drums: f64,
+    pub bass: f64,
+    pub pad: f64,
+    /// Level of chord strings held through each phrase (0: none).
+    pub strings: f64,
+    /// Level of a constant noise floor (0: none).
+    pub noise: f64,
+    /// Drum level of each phrase (cycled like the chords): 1 full, 0 drums out.
+    pub phrase_drums: Vec<f64>,
+}
+
+impl Arrangement {
+    /// Every phrase the same, no strings or noise, no gain change: the original procedural music.
+    pub fn plain() -> Arrangement {
+        Arrangement {
+            gain_db: [0.0, 0.0],
+            drums: 1.0,
+            bass: 1.0,
+            pad: 1.0,
+            strings: 0.0,
+            noise: 0.0,
+            phrase_drums: vec![1.0],
+        }
+    }
+
+    /// A random arrangement for `phrases` phrases: gain −15..0 dB at each end, mix levels, and
+    /// per phrase full drums (70 %), soft drums (15 %) or none (15 %); the first phrase is an
+    /// intro without or with soft drums half of the time.
+    pub fn random(rng: &mut ChaCha8Rng, phrases: usize) -> Arrangement {
+        let mut phrase_drums: Vec<f64> = (0..phrases.max(1))
+            .map(|_| match rng.random_range(0..20) {
+                0..=2 => 0.0,
+                3..=5 => 0.35,
+                _ => 1.0,
+            })
+            .collect();
+        if rng.random_bool(0.5) {
+            phrase_drums[0] = if rng.random_bool(0.5) { 0.0 } else { 0.35 };
+        }
+        Arrangement {
+            gain_db: [rng.random_range(-15.0..0.0), rng.random_range(-15.0..0.0)],
+            drums: rng.random_range(0.4..1.0),
+            bass: rng.random_range(0.5..1.3),
+            pad: rng.random_range(0.5..2.0),
+            strings: rng.random_range(0.5..2.0),
+            noise: rng.random_range(0.002..0.02),
+            phrase_drums,
+        }
+    }
+
+    fn phrase_drum(&self, beat: usize) -> f64 {
+        self.drums * self.phrase_drums[(beat / BEATS_PER_PHRASE) % self.phrase_drums.len()]
+    }
 }
 
 impl MusicSpec {
@@ -60,7 +130,14 @@ impl MusicSpec {
             phrase_chords: chords,
             groove,
             seconds,
+            arrangement: Arrangement::plain(),
         }
+    }
+
+    /// Phrases in the track (the last one may be cut short).
+    pub fn phrases(&self) -> usize {
+        let beats = (self.seconds / self.beat_period()).ceil() as usize + 1;
+        beats.div_ceil(BEATS_PER_PHRASE).max(1)
     }
 
     pub fn beat_period(&self) -> f64 {
@@ -94,6 +171,7 @@ pub fn render(spec: &MusicSpec, sample_rate: u32, rng: &mut ChaCha8Rng) -> Vec<f
     let period = spec.beat_period();
     let sixteenth = period / 4.0;
     let total_beats = (spec.seconds / period).ceil() as usize + 1;
+    let arr = &spec.arrangement;
 
     for beat in 0..total_beats {
         let t_beat = spec.first_beat + beat as f64 * period;
@@ -115,18 +193,19 @@ pub fn render(spec: &MusicSpec, sample_rate: u32, rng: &mut ChaCha8Rng) -> Vec<f
                 &[0.0, 2.0 / 3.0],
             ),
         };
+        let drums = arr.phrase_drum(beat);
         for &k in kick16 {
-            add_kick(&mut out, sr, t_beat + k as f64 * sixteenth, 0.9);
+            add_kick(&mut out, sr, t_beat + k as f64 * sixteenth, 0.9 * drums);
         }
         if !kick16.contains(&0) {
             // A soft kick on every beat keeps the pulse clear for beat tracking.
-            add_kick(&mut out, sr, t_beat, 0.5);
+            add_kick(&mut out, sr, t_beat, 0.5 * drums);
         }
         if snare {
-            add_snare(&mut out, sr, t_beat, 0.5, rng);
+            add_snare(&mut out, sr, t_beat, 0.5 * drums, rng);
         }
         for &h in hats {
-            add_hat(&mut out, sr, t_beat + h * period, 0.18, rng);
+            add_hat(&mut out, sr, t_beat + h * period, 0.18 * drums, rng);
         }
         // Bass: root on the beat, fifth on the off-beat.
         add_tone(
@@ -135,7 +214,7 @@ pub fn render(spec: &MusicSpec, sample_rate: u32, rng: &mut ChaCha8Rng) -> Vec<f
             t_beat,
             period * 0.45,
             midi_hz(root - 12.0),
-            0.28,
+            0.28 * arr.bass,
             0.01,
             0.12,
         );
@@ -145,7 +224,7 @@ pub fn render(spec: &MusicSpec, sample_rate: u32, rng: &mut ChaCha8Rng) -> Vec<f
             t_beat + period * 0.5,
             period * 0.4,
             midi_hz(root - 5.0),
-            0.18,
+            0.18 * arr.bass,
             0.01,
             0.1,
         );
@@ -153,13 +232,42 @@ pub fn render(spec: &MusicSpec, sample_rate: u32, rng: &mut ChaCha8Rng) -> Vec<f
         for &iv in &chord {
             let f = midi_hz(spec.key_root as f64 + 12.0 + iv as f64);
             let amp = if in_bar == 0 { 0.09 } else { 0.06 };
-            add_tone(&mut out, sr, t_beat, period * 0.95, f, amp, 0.02, 0.6);
+            add_tone(
+                &mut out,
+                sr,
+                t_beat,
+                period * 0.95,
+                f,
+                amp * arr.pad,
+                0.02,
+                0.6,
+            );
         }
+        // Strings: the chord held through the phrase, one octave up, slow attack.
+        if arr.strings > 0.0 && beat % BEATS_PER_PHRASE == 0 {
+            for &iv in &chord {
+                let f = midi_hz(spec.key_root as f64 + 24.0 + iv as f64);
+                let len = period * BEATS_PER_PHRASE as f64;
+                add_tone(&mut out, sr, t_beat, len, f, 0.025 * arr.strings, 0.3, 1e9);
+            }
+        }
+    }
+    if arr.noise > 0.0 {
+        out.iter_mut()
+            .for_each(|x| *x += arr.noise * rng.random_range(-1.0..1.0));
     }
     let peak = out.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     if peak > 0.0 {
         let g = 0.8 / peak;
         out.iter_mut().for_each(|x| *x *= g);
+    }
+    let [g0, g1] = arr.gain_db;
+    if g0 != 0.0 || g1 != 0.0 {
+        let last = (n.max(2) - 1) as f64;
+        for (i, x) in out.iter_mut().enumerate() {
+            let db = g0 + (g1 - g0) * i as f64 / last;
+            *x *= 10f64.powf(db / 20.0);
+        }
     }
     out
 }
@@ -241,6 +349,58 @@ mod tests {
         assert_eq!(a, mk());
         let peak = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         assert!((peak - 0.8).abs() < 1e-12);
+    }
+
+    #[test]
+    fn arrangement_sets_loudness_and_drum_sections() {
+        // Mean energy of the 50 ms after each of the given beats.
+        let after_beats = |x: &[f64], beats: &[f64], sr: f64| {
+            let e: f64 = beats
+                .iter()
+                .map(|&t| {
+                    let i = (t * sr) as usize;
+                    x[i..i + 400].iter().map(|v| v * v).sum::<f64>()
+                })
+                .sum();
+            e / beats.len() as f64
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let mut spec = MusicSpec::random(&mut rng, 120.0, Groove::FourOnFloor, 8.5);
+        spec.arrangement = Arrangement {
+            gain_db: [-12.0, -12.0],
+            phrase_drums: vec![0.0, 1.0],
+            strings: 1.0,
+            noise: 0.01,
+            ..Arrangement::plain()
+        };
+        let sr = 8000.0;
+        let x = render(&spec, 8000, &mut rng);
+        // Peak normalised to 0.8, then 12 dB down.
+        let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!((peak - 0.8 * 10f64.powf(-0.6)).abs() < 1e-12, "{peak}");
+        // Phrase 0 (beats 0–7) has no drums, phrase 1 has them: its beats carry far more energy.
+        let beats = spec.beat_times();
+        let (quiet, loud) = (
+            after_beats(&x, &beats[1..8], sr),
+            after_beats(&x, &beats[8..16], sr),
+        );
+        assert!(
+            quiet < 0.3 * loud,
+            "after beats: {quiet} without drums, {loud} with"
+        );
+        // Strings and noise fill the gaps: no silent stretch of 50 ms.
+        let quiet = x
+            .chunks(400)
+            .map(|c| c.iter().map(|v| v * v).sum::<f64>() / 400.0)
+            .fold(f64::INFINITY, f64::min);
+        assert!(quiet > 1e-6, "quietest 50 ms: {quiet}");
+        // Random arrangements stay inside their documented ranges, first phrase included.
+        for seed in 0..50 {
+            let a = Arrangement::random(&mut ChaCha8Rng::seed_from_u64(seed), 4);
+            assert_eq!(a.phrase_drums.len(), 4);
+            assert!(a.gain_db.iter().all(|g| (-15.0..0.0).contains(g)));
+            assert!(a.phrase_drums.iter().all(|d| [0.0, 0.35, 1.0].contains(d)));
+        }
     }
 
     #[test]
