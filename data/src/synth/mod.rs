@@ -254,7 +254,7 @@ fn write_dataset(
         if opts.varied_music {
             // Its own stream: the plain tracks stay what they were.
             let mut arr_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ fnv(id) ^ fnv("arrangement"));
-            spec.arrangement = music::Arrangement::random(&mut arr_rng, spec.phrases());
+            spec.arrangement = music::Arrangement::random(&mut arr_rng, spec.phrase_chords.len());
         }
         let path = dir.join("wav").join(format!("{id}.wav"));
         let track = match opts.real_music.iter().find(|t| &t.music_id == id) {

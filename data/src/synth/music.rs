@@ -134,12 +134,6 @@ impl MusicSpec {
         }
     }
 
-    /// Phrases in the track (the last one may be cut short).
-    pub fn phrases(&self) -> usize {
-        let beats = (self.seconds / self.beat_period()).ceil() as usize + 1;
-        beats.div_ceil(BEATS_PER_PHRASE).max(1)
-    }
-
     pub fn beat_period(&self) -> f64 {
         60.0 / self.bpm
     }
