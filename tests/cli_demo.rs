@@ -1,5 +1,5 @@
-//! `qean demo --quick` end to end: the table, the artefacts, the checks against chance, and a second
-//! run that reuses every finished stage.
+//! `qean demo --quick` end to end: the table, the artefacts, the checks against chance, a second
+//! run that reuses every finished stage, and a third that refuses a run of another model.
 
 mod common;
 
@@ -126,4 +126,27 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
             .collect()
     };
     assert_eq!(rows(&again), rows(&table));
+
+    // A run an earlier demo trained with another model (e.g. before a preset changed) is refused
+    // by name before any training starts, instead of being continued as this demo's.
+    let stored = out.join("runs/qean/config.toml");
+    let text = std::fs::read_to_string(&stored).unwrap();
+    assert!(text.contains("heads = 2"), "{text}");
+    std::fs::write(&stored, text.replacen("heads = 2", "heads = 8", 1)).unwrap();
+    let fact_before = std::fs::read(out.join("runs/fact/metrics.csv")).unwrap();
+    let o = qean()
+        .args(["demo", "--quick", "--plain", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("runs/qean/config.toml: trained with another model"),
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read(out.join("runs/fact/metrics.csv")).unwrap(),
+        fact_before
+    );
 }

@@ -34,7 +34,7 @@ real=(--real-music "$music/sorohanro_-_solo-trumpet-06.ogg=mBR1"
   --only dance+rollout,dance+velocity,dance+horizon40 &
 wait
 "$qean" sweep --config "$sweeps/steps.toml" --data data60v --out steps --plain &
-"$qean" sweep --config "$sweeps/qean.toml" --data data60v --out qean --plain --only fact,qean &
+"$qean" sweep --config "$sweeps/qean.toml" --data data60v --out qean --plain --only fact,qean,fact-2heads,qean-8heads &
 wait
 "$qean" sweep --config "$sweeps/qean.toml" --data data60v --out qean --plain --only qean-qra-small,qean-qra-zero &
 "$qean" sweep --config "$sweeps/qean.toml" --data data60v --out qean --plain --only qean-dropout0.1 &
@@ -73,7 +73,8 @@ eval_runs windows ablation/dance-seed* --steps 4000 --out fig/windows --title "W
 "$qean" curves ablation/dance-seed* ablation/mint-seed* --evaluate --data data60 --max-frames 900 \
   --out fig/ablation-steps --title "TINY FACT, WINDOWS 30/60, 3 SEEDS"
 
-# docs/freezing.md section 5: the four tiny QEAN rows trained as the demo trains, and their
+# docs/freezing.md section 5: the four tiny QEAN rows trained as the demo trains (at the 8 heads
+# they had then), and their
 # dances to the held-out real song and to a training recording (speed per 5 s printed by sample).
 demo_set=(--set model.motion_len=30 --set model.audio_len=60 --set train.steps=4000
   --set "schedule.boundaries=[3000]" --set train.checkpoint_every=1000 --set train.val_every=1000
@@ -83,16 +84,16 @@ for row in baseline spe qra full; do
     run=heldout/$row-seed$seed
     [ -d "$run/checkpoints/step-4000" ] ||
       "$qean" train --config "$root/configs/tiny/$row.toml" --data data60 --run-dir "$run" --plain \
-        "${demo_set[@]}" --set train.seed=$seed
+        "${demo_set[@]}" --set train.seed=$seed --set model.heads=8
     for song in "$music/Kevin_MacLeod_-_Vibe_Ace.ogg" "$music/Brahms_Hungarian_Dance_5.ogg"; do
       "$qean" sample --run "$run" --music "$song" --data data60 \
         --sequence gBR_sBM_cAll_d04_mBR0_ch02 --out "$run/dances"
     done
   done
 done
-# Section 5 with varied music: the held-out dances of the three FACT and QEAN seeds, and the
-# QEAN variants tried against its decay.
-for run in qean/fact-seed* qean/qean-seed*; do
+# Section 5 with varied music: the held-out dances of the three FACT and QEAN seeds at both head
+# counts, and the QEAN variants tried against its decay (at 8 heads, as measured then).
+for run in qean/fact-seed* qean/qean-seed* qean/fact-2heads-seed* qean/qean-8heads-seed*; do
   "$qean" sample --run "$run" --music "$music/Kevin_MacLeod_-_Vibe_Ace.ogg" --data data60v \
     --sequence gBR_sBM_cAll_d04_mBR0_ch02 --out "$run/dances"
 done
@@ -102,7 +103,7 @@ for v in "${variants[@]}"; do
   run=heldout-v/${v%% *}
   [ -d "$run/checkpoints/step-4000" ] ||
     "$qean" train --config "$root/configs/tiny/full.toml" --data data60v --run-dir "$run" --plain \
-      "${demo_set[@]}" --set "${v#* }"
+      "${demo_set[@]}" --set model.heads=8 --set "${v#* }"
   for song in "$music/Kevin_MacLeod_-_Vibe_Ace.ogg" "$music/Brahms_Hungarian_Dance_5.ogg"; do
     "$qean" sample --run "$run" --music "$song" --data data60v \
       --sequence gBR_sBM_cAll_d04_mBR0_ch02 --out "$run/dances"
