@@ -87,7 +87,7 @@ pub struct Budget {
 }
 
 impl Budget {
-    /// About 10 minutes on 2 CPU cores (default) or under one (`--quick`); docs/freezing.md says
+    /// About 8 minutes on 2 CPU cores (default) or under one (`--quick`); docs/freezing.md says
     /// why these sizes.
     pub fn new(quick: bool) -> Budget {
         if quick {

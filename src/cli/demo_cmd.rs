@@ -10,7 +10,7 @@ use qean_train::ProgressMode;
 /// music includes two real recordings, the tiny FACT and tiny full-QEAN models trained on CPU, a
 /// 1200-frame dance for a held-out real song (Kevin MacLeod's "Vibe Ace", CC BY 3.0) with a preview,
 /// and both models scored (FID_k, FID_g, Dist_k, Dist_g, BeatAlign) next to chance baselines.
-/// About 6 minutes on 2 CPU cores (`--quick`: under a minute). Run it again to reuse finished stages;
+/// About 8 minutes on 2 CPU cores (`--quick`: under a minute). Run it again to reuse finished stages;
 /// Ctrl-C stops training with a checkpoint and the next run continues.
 ///
 /// Example: qean demo --quick
