@@ -283,16 +283,9 @@ fn train_all(
         let run_dir = opts.out.join("runs").join(name);
         let resume = qean_train::run_dir::list_checkpoints(&run_dir).is_ok_and(|c| !c.is_empty());
         if resume {
-            // A run of an earlier demo (e.g. before a preset changed) is not continued as this one.
-            let stored = run_dir.join("config.toml");
-            let had = RunConfig::load(&stored, &[]).map_err(|e| anyhow::anyhow!("{e}"))?;
-            if had.model != wanted.model {
-                anyhow::bail!(
-                    "{}: trained with another model than {preset} (an earlier demo's?): delete {} or use another --out",
-                    stored.display(),
-                    run_dir.display()
-                );
-            }
+            // The trainer's own check, made here too so that a run of an earlier demo (e.g. before
+            // a preset changed) stops the demo before any training starts.
+            qean_train::checkpoint::resolve(&run_dir)?.check_model(&wanted.model)?;
         }
         plans.push((name, preset, config, run_dir, resume));
     }

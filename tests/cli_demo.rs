@@ -129,10 +129,12 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
 
     // A run an earlier demo trained with another model (e.g. before a preset changed) is refused
     // by name before any training starts, instead of being continued as this demo's.
-    let stored = out.join("runs/qean/config.toml");
-    let text = std::fs::read_to_string(&stored).unwrap();
-    assert!(text.contains("heads = 2"), "{text}");
-    std::fs::write(&stored, text.replacen("heads = 2", "heads = 8", 1)).unwrap();
+    for e in std::fs::read_dir(out.join("runs/qean/checkpoints")).unwrap() {
+        let stored = e.unwrap().path().join("config.toml");
+        let text = std::fs::read_to_string(&stored).unwrap();
+        assert!(text.contains("heads = 2"), "{text}");
+        std::fs::write(&stored, text.replacen("heads = 2", "heads = 8", 1)).unwrap();
+    }
     let fact_before = std::fs::read(out.join("runs/fact/metrics.csv")).unwrap();
     let o = qean()
         .args(["demo", "--quick", "--plain", "--out"])
@@ -141,8 +143,11 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
         .unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "{stderr}");
+    assert!(stderr.contains("runs/qean/checkpoints/step-"), "{stderr}");
     assert!(
-        stderr.contains("runs/qean/config.toml: trained with another model"),
+        stderr.contains(
+            "the checkpoint holds a different model than the config (checkpoint `heads = 8`, config `heads = 2`)"
+        ),
         "{stderr}"
     );
     assert_eq!(

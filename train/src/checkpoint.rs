@@ -116,6 +116,26 @@ impl Checkpoint {
             .map_err(Error::msg)
     }
 
+    /// Refuses to continue these weights as another model: the error names the checkpoint and the
+    /// first differing `[model]` line.
+    pub fn check_model(&self, model: &qean_models::ModelConfig) -> Result<()> {
+        if self.config.model == *model {
+            return Ok(());
+        }
+        let a = toml::to_string(&self.config.model).unwrap_or_default();
+        let b = toml::to_string(model).unwrap_or_default();
+        let diff = a
+            .lines()
+            .zip(b.lines())
+            .find(|(x, y)| x != y)
+            .map(|(x, y)| format!(" (checkpoint `{x}`, config `{y}`)"))
+            .unwrap_or_default();
+        Err(Error::at(
+            &self.dir,
+            format!("the checkpoint holds a different model than the config{diff}"),
+        ))
+    }
+
     /// The run directory holding this checkpoint (`R` of `R/checkpoints/step-N`).
     pub fn run_dir(&self) -> Option<PathBuf> {
         let parent = self.dir.parent()?;

@@ -546,20 +546,7 @@ fn train_locked(mut config: RunConfig, opts: &TrainOptions) -> Result<TrainOutco
     config.data.dir = Some(data_dir.clone());
 
     if let Some(ck) = &resume_from {
-        if ck.config.model != config.model {
-            let a = toml::to_string(&ck.config.model).unwrap_or_default();
-            let b = toml::to_string(&config.model).unwrap_or_default();
-            let diff = a
-                .lines()
-                .zip(b.lines())
-                .find(|(x, y)| x != y)
-                .map(|(x, y)| format!(" (checkpoint `{x}`, config `{y}`)"))
-                .unwrap_or_default();
-            return Err(Error::at(
-                &ck.dir,
-                format!("the checkpoint holds a different model than the config{diff}"),
-            ));
-        }
+        ck.check_model(&config.model)?;
         if ck.state.step > config.train.steps {
             return Err(Error::at(
                 &ck.dir,
