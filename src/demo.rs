@@ -427,6 +427,7 @@ fn dance(
             feedback_project: ck.config.recipe.feedback_project,
             ensemble: ck.config.recipe.ensemble,
             ensemble_decay: ck.config.recipe.ensemble_decay,
+            seam_frames: ck.config.recipe.seam_frames,
             render: true,
             backend: ck.config.train.backend.clone(),
         },

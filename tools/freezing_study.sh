@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Reproduces the measurements of docs/freezing.md: the demo's synthetic dataset (and a 240-sequence
-# one), the sweeps of configs/sweeps/freezing/, their evaluation and the figures.
+# one with the same music), the sweeps of configs/sweeps/freezing/, their evaluation and the figures.
 #
 #   tools/freezing_study.sh WORKDIR [QEAN_BINARY]
 #
@@ -22,10 +22,10 @@ real=(--real-music "$music/sorohanro_-_solo-trumpet-06.ogg=mBR1"
   --real-music "$music/Brahms_Hungarian_Dance_5.ogg=mLO0")
 [ -d data60 ] || "$qean" synth --out data60 --sequences 60 --seconds 16 --seed 0 --plain-music "${real[@]}"
 [ -d data60v ] || "$qean" synth --out data60v --sequences 60 --seconds 16 --seed 0 "${real[@]}"
-[ -d data240 ] || "$qean" synth --out data240 --sequences 240 --seconds 16 --seed 0 --plain-music
+[ -d data240v ] || "$qean" synth --out data240v --sequences 240 --seconds 16 --seed 0 "${real[@]}"
 "$qean" features --dataset data60
 "$qean" features --dataset data60v
-"$qean" features --dataset data240
+"$qean" features --dataset data240v
 
 # Two sweeps at a time: the CPU backend keeps one core busy per run.
 "$qean" sweep --config "$sweeps/ablation.toml" --data data60 --out ablation --plain \
@@ -39,8 +39,10 @@ wait
 "$qean" sweep --config "$sweeps/qean.toml" --data data60v --out qean --plain --only qean-qra-small,qean-qra-zero &
 "$qean" sweep --config "$sweeps/qean.toml" --data data60v --out qean --plain --only qean-dropout0.1 &
 wait
-"$qean" sweep --config "$sweeps/windows.toml" --data data60 --out windows --plain --only w60 &
-"$qean" sweep --config "$sweeps/data.toml" --data data240 --out data240-runs --plain &
+# Section 4, window length and dataset size (varied music, three seeds).
+# (windows.toml's w120, mint's 120/240, is configured too: about 4x the cost of an update of w30.)
+"$qean" sweep --config "$sweeps/windows.toml" --data data60v --out windows --plain --only w30,w60 &
+"$qean" sweep --config "$sweeps/data.toml" --data data240v --out data240v-runs --plain &
 wait
 
 # Evaluation: 900 generated frames per test/val sequence (all of their music), chance baselines.
@@ -68,8 +70,14 @@ done
   --title "TINY FACT AGAINST TRAINING STEPS (WINDOWS 30/60, VARIED MUSIC)"
 "$qean" curves qean --evaluate --data data60v --max-frames 600 --steps 4000 --out fig/qean \
   --title "TINY FACT AND QEAN AT 4000 STEPS (VARIED MUSIC)"
-eval_runs windows ablation/dance-seed* --steps 4000 --out fig/windows --title "WINDOW LENGTHS"
-"$qean" curves data240-runs --evaluate --data data240 --max-frames 900 --steps 4000 --out fig/data240
+"$qean" curves windows --evaluate --data data60v --max-frames 900 --steps 2000,4000 --out fig/windows \
+  --title "TINY FACT, WINDOWS 30/60 AND 60/120 (VARIED MUSIC)"
+"$qean" curves data240v-runs --evaluate --data data240v --max-frames 900 --steps 4000 --out fig/data240v
+# Their dances to the held-out song, seeded as the demo seeds (speed per 5 s printed by sample).
+for run in windows/w*-seed* data240v-runs/dance-seed*; do
+  "$qean" sample --run "$run" --music "$music/Kevin_MacLeod_-_Vibe_Ace.ogg" --data data60v \
+    --sequence gBR_sBM_cAll_d04_mBR0_ch02 --out "$run/dances"
+done
 "$qean" curves ablation/dance-seed* ablation/mint-seed* --evaluate --data data60 --max-frames 900 \
   --out fig/ablation-steps --title "TINY FACT, WINDOWS 30/60, 3 SEEDS"
 

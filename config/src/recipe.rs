@@ -18,6 +18,8 @@
 //! - `feedback_project`: at inference, project fed-back rotations to SO(3) and zero the pad dims.
 //! - `ensemble`, `ensemble_decay`: at inference, each frame the weighted mean of the predictions
 //!   the last `ensemble` passes made for it (temporal ensembling; 1 = token 0 only, mint);
+//! - `seam_frames`: at inference, the jump between the seed and the first generated frame
+//!   faded out over this many frames (inertialization, `qean_data::seam`);
 //! - `audio_norm`: music features standardised with the training split's statistics;
 //! - `predict`: future poses (mint) or offsets from the last input frame.
 //!
@@ -113,6 +115,9 @@ pub struct RecipeConfig {
     /// `ensemble` passes with weights exp(−ensemble_decay·k) (1 = token 0 only, mint).
     pub ensemble: usize,
     pub ensemble_decay: f64,
+    /// Inertialization at the seed's end: the gap between the seed's continuation and the first
+    /// generated frame fades out over this many frames (0 = off, mint).
+    pub seam_frames: usize,
 }
 
 impl RecipeConfig {
@@ -136,6 +141,7 @@ impl RecipeConfig {
                 predict: Predict::Pose,
                 ensemble: 1,
                 ensemble_decay: 0.0,
+                seam_frames: 0,
             },
             RecipeBase::Dance => RecipeConfig {
                 base,
@@ -143,6 +149,7 @@ impl RecipeConfig {
                 feedback_project: true,
                 audio_norm: AudioNorm::Standardize,
                 ensemble: 8,
+                seam_frames: 30,
                 ..Self::of(RecipeBase::Mint)
             },
         }
@@ -187,6 +194,9 @@ impl RecipeConfig {
                 "{} passes ensembled (decay {})",
                 self.ensemble, self.ensemble_decay
             ));
+        }
+        if self.seam_frames > 0 {
+            on.push(format!("seed's end eased over {} frames", self.seam_frames));
         }
         let base = format!("{:?}", self.base).to_lowercase();
         if on.is_empty() {
@@ -373,6 +383,7 @@ struct RecipeFile {
     predict: Option<Predict>,
     ensemble: Option<usize>,
     ensemble_decay: Option<f64>,
+    seam_frames: Option<usize>,
 }
 
 impl<'de> Deserialize<'de> for RecipeConfig {
@@ -396,6 +407,7 @@ impl<'de> Deserialize<'de> for RecipeConfig {
             predict: f.predict.unwrap_or(b.predict),
             ensemble: f.ensemble.unwrap_or(b.ensemble),
             ensemble_decay: f.ensemble_decay.unwrap_or(b.ensemble_decay),
+            seam_frames: f.seam_frames.unwrap_or(b.seam_frames),
         })
     }
 }
@@ -440,13 +452,14 @@ mod tests {
 
     #[test]
     fn the_dance_base_is_the_measured_recipe() {
-        // docs/freezing.md: standardised music, input noise 0.02, projected feedback and 8
-        // ensembled passes; rollouts, difference losses and offsets stay off.
+        // docs/freezing.md: standardised music, input noise 0.02, projected feedback, 8
+        // ensembled passes and the seed's end eased over 30 frames; rollouts, difference losses
+        // and offsets stay off.
         let d = RecipeConfig::of(RecipeBase::Dance);
         assert_eq!(d.audio_norm, AudioNorm::Standardize);
         assert_eq!(
-            (d.input_noise, d.ensemble, d.feedback_project),
-            (0.02, 8, true)
+            (d.input_noise, d.ensemble, d.feedback_project, d.seam_frames),
+            (0.02, 8, true, 30)
         );
         assert_eq!(
             (d.rollout_frames, d.velocity_loss, d.predict),

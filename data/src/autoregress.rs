@@ -9,6 +9,7 @@
 
 use crate::motion::Layout;
 use crate::rotation::project_to_so3;
+use crate::seam::{self, Seam};
 use crate::windows::{WindowSpec, AUDIO_DIM};
 
 /// What to do when the music ends before the requested number of frames.
@@ -37,6 +38,9 @@ pub struct SampleOptions {
     /// weight exp(−ensemble_decay·k)). 1 = token 0 only (mint).
     pub ensemble: usize,
     pub ensemble_decay: f64,
+    /// Inertialization at the seed's end ([`crate::seam`]): the gap between the seed's
+    /// continuation and the first generated frame fades out over this many frames (0 = off, mint).
+    pub seam_frames: usize,
     pub layout: Layout,
     pub spec: WindowSpec,
 }
@@ -50,6 +54,7 @@ impl Default for SampleOptions {
             offset_output: false,
             ensemble: 1,
             ensemble_decay: 0.0,
+            seam_frames: 0,
             layout: Layout::L225,
             spec: WindowSpec::default(),
         }
@@ -127,6 +132,8 @@ pub fn autoregress<E>(
         .collect();
     let mut pending: Vec<std::collections::VecDeque<(f64, Vec<f64>)>> =
         vec![std::collections::VecDeque::new(); requests.len()];
+    // The gap at the seed's end, per request, measured on the first generated frame.
+    let mut seams: Vec<Option<Seam>> = vec![None; requests.len()];
     let mut motion = Vec::new();
     let mut audio = Vec::new();
     for i in 0..total {
@@ -173,6 +180,16 @@ pub fn autoregress<E>(
             if opts.offset_output && e == 1 {
                 for (x, l) in y.iter_mut().zip(last) {
                     *x += l;
+                }
+            }
+            if i < opts.seam_frames {
+                if i == 0 {
+                    let prev =
+                        &windows[k][ml.saturating_sub(2) * d..(ml.saturating_sub(2) + 1) * d];
+                    seams[k] = Some(Seam::measure(prev, last, &y, opts.layout));
+                }
+                if let Some(s) = &seams[k] {
+                    s.apply(&mut y, seam::weight(i, opts.seam_frames), opts.layout);
                 }
             }
             if opts.feedback_project {
@@ -352,5 +369,65 @@ mod tests {
         assert!(f[..6].iter().all(|&x| x == 0.0));
         let r: [f64; 9] = std::array::from_fn(|k| f[9 + k] as f64);
         assert!((crate::rotation::determinant(&r) - 1.0).abs() < 1e-5);
+    }
+
+    /// The seam: a model that always answers one pose 10 cm away from a still seed. Without
+    /// the seam the dance jumps 10 cm in one frame; with it the first frame continues the seed,
+    /// the gap closes smoothly (no step above 1.6 × 10 cm / 20 frames) and from frame 20 on the
+    /// frames are the model's.
+    #[test]
+    fn seam_closes_the_gap_smoothly() {
+        let layout = Layout::L219;
+        let d = layout.dim();
+        let mut still = vec![0.0f32; d];
+        for j in 0..24 {
+            for k in [0, 4, 8] {
+                still[3 + 9 * j + k] = 1.0;
+            }
+        }
+        let mut target = still.clone();
+        target[0] = 0.1;
+        let spec = WindowSpec {
+            motion_len: 4,
+            audio_len: 4,
+            ..Default::default()
+        };
+        let req = SampleRequest {
+            seed: still.repeat(4),
+            audio: vec![0.0; 40 * AUDIO_DIM],
+        };
+        let run = |seam_frames| {
+            let opts = SampleOptions {
+                frames: 30,
+                seam_frames,
+                feedback_project: true,
+                layout,
+                spec,
+                ..Default::default()
+            };
+            let out = autoregress::<()>(
+                std::slice::from_ref(&req),
+                &opts,
+                |_m, _a, b| Ok(target.repeat(b)),
+                |_, _| {},
+            )
+            .unwrap();
+            (0..34).map(|f| out[0][f * d] as f64).collect::<Vec<_>>()
+        };
+        let raw = run(0);
+        assert!((raw[4] - 0.1).abs() < 1e-7, "no seam: jumps at once");
+        let eased = run(20);
+        assert!(
+            eased[4].abs() < 1e-7,
+            "first frame continues the still seed"
+        );
+        let steps: Vec<f64> = eased.windows(2).map(|p| p[1] - p[0]).collect();
+        assert!(
+            steps
+                .iter()
+                .all(|&s| (-1e-7..=1.6 * 0.1 / 20.0).contains(&s)),
+            "{steps:?}"
+        );
+        assert!(eased[24..].iter().all(|&x| (x - 0.1).abs() < 1e-7));
     }
 }

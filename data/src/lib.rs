@@ -18,6 +18,7 @@ pub mod npy;
 pub mod pickle;
 pub mod render;
 pub mod rotation;
+pub mod seam;
 pub mod skeleton;
 pub mod synth;
 #[doc(hidden)]

@@ -60,6 +60,10 @@ pub struct Args {
     /// Checkpoint mode: the ensembling weights' decay per pass (default: the run's recipe).
     #[arg(long, requires = "run")]
     pub ensemble_decay: Option<f64>,
+    /// Checkpoint mode: frames over which the jump at the seed's end fades out while sampling
+    /// (default: the run's recipe.seam_frames; 0 = off, mint).
+    #[arg(long, requires = "run")]
+    pub seam_frames: Option<usize>,
     /// Checkpoint mode: write the report under R/eval/step-N-TAG/ instead of R/eval/step-N/
     /// (several sampling settings of one checkpoint side by side).
     #[arg(long, requires = "run")]

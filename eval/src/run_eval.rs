@@ -317,6 +317,7 @@ pub fn evaluate_run_full(
         offset_output: config.recipe.predict == qean_config::recipe::Predict::Offset,
         ensemble: args.ensemble.unwrap_or(config.recipe.ensemble),
         ensemble_decay: args.ensemble_decay.unwrap_or(config.recipe.ensemble_decay),
+        seam_frames: args.seam_frames.unwrap_or(config.recipe.seam_frames),
         layout,
         spec: config.window_spec(),
     };

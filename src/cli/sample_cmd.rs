@@ -60,6 +60,11 @@ pub struct SampleArgs {
     /// Weight e^(−X·k) of the pass k frames back when ensembling (default: the run's recipe).
     #[arg(long)]
     pub ensemble_decay: Option<f64>,
+    /// Ease the seed's end: the jump from the seed to the first generated frame fades out over
+    /// N frames, fed back to the model as generated (default: the run's recipe.seam_frames;
+    /// 0 = off, as mint).
+    #[arg(long)]
+    pub seam_frames: Option<usize>,
     /// Output directory (created if missing).
     #[arg(long)]
     pub out: PathBuf,
@@ -109,6 +114,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
             .feedback_project_with(a.feedback_project, a.raw_feedback),
         ensemble: a.ensemble.unwrap_or(ck.config.recipe.ensemble),
         ensemble_decay: a.ensemble_decay.unwrap_or(ck.config.recipe.ensemble_decay),
+        seam_frames: a.seam_frames.unwrap_or(ck.config.recipe.seam_frames),
         render: a.render,
         backend: a.backend.clone().unwrap_or(ck.config.train.backend.clone()),
     };

@@ -103,6 +103,8 @@ pub struct GenerateOptions {
     /// Temporal ensembling: passes averaged per frame (1 = token 0 only, mint) and their decay.
     pub ensemble: usize,
     pub ensemble_decay: f64,
+    /// Frames over which the jump at the seed's end fades out (0 = off, mint).
+    pub seam_frames: usize,
     pub render: bool,
     pub backend: String,
 }
@@ -149,6 +151,7 @@ pub fn generate(
         offset_output: ck.config.recipe.predict == qean_config::recipe::Predict::Offset,
         ensemble: opts.ensemble,
         ensemble_decay: opts.ensemble_decay,
+        seam_frames: opts.seam_frames,
         layout: ck.config.layout(),
         spec: ck.config.window_spec(),
     };

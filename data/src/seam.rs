@@ -1,0 +1,145 @@
+//! The seed's end (issue 17): a model's first forecast need not start where the seed stops. A
+//! tiny model trained with input noise lands its first generated frame on a pose of the dance
+//! proper (the seed is a sequence's slower first half second), and the dance jumps by a few
+//! centimetres in one frame: 2.5–5.7 m/s mean joint speed for that frame, in every dance.
+//!
+//! Inertialization (Bollo, "Inertialization: high-performance animation transitions", GDC 2016)
+//! removes such a jump: the gap between where the seed was going and the first generated frame is
+//! measured once, added to that frame in full and to the next ones with a weight that falls
+//! smoothly to zero over `frames` frames. The gap is a root translation and one rotation per joint
+//! (applied on the left, R′ = exp(w·log Δ)·R); the seed's continuation is its last frame moved on
+//! by its last frame-to-frame step. The sampler feeds the eased frames back, so the model
+//! continues from what is exported.
+
+use crate::motion::Layout;
+use crate::rotation::{
+    axis_angle_to_matrix, matmul, matrix_to_axis_angle, project_to_so3, transpose, Mat3,
+};
+
+/// The gap at the seam: root translation and per-joint axis-angle offsets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Seam {
+    trans: [f64; 3],
+    rot: Vec<[f64; 3]>,
+}
+
+fn block(frame: &[f32], at: usize) -> Mat3 {
+    std::array::from_fn(|k| frame[at + k] as f64)
+}
+
+/// Weight of the gap on generated frame `k` (0-based) when it fades over `frames` frames:
+/// 1 − smoothstep(k / frames), so 1 on the first frame and 0 from frame `frames` on.
+pub fn weight(k: usize, frames: usize) -> f64 {
+    if k >= frames {
+        return 0.0;
+    }
+    let x = k as f64 / frames as f64;
+    1.0 - x * x * (3.0 - 2.0 * x)
+}
+
+impl Seam {
+    /// The gap between the continuation of the seed (`prev`, `last`: its last two frames) and the
+    /// first generated frame `first`, in the model's layout.
+    pub fn measure(prev: &[f32], last: &[f32], first: &[f32], layout: Layout) -> Seam {
+        let off = layout.trans_offset();
+        let trans = std::array::from_fn(|a| {
+            let (p, l) = (prev[off + a] as f64, last[off + a] as f64);
+            2.0 * l - p - first[off + a] as f64
+        });
+        let rot = (0..24)
+            .map(|j| {
+                let b = off + 3 + 9 * j;
+                let (p, l) = (
+                    project_to_so3(&block(prev, b)),
+                    project_to_so3(&block(last, b)),
+                );
+                // Constant angular velocity: last · (prevᵀ · last).
+                let next = matmul(&l, &matmul(&transpose(&p), &l));
+                let g = project_to_so3(&block(first, b));
+                matrix_to_axis_angle(&matmul(&next, &transpose(&g)))
+            })
+            .collect();
+        Seam { trans, rot }
+    }
+
+    /// Adds `w` × the gap to a generated frame.
+    pub fn apply(&self, frame: &mut [f32], w: f64, layout: Layout) {
+        if w == 0.0 {
+            return;
+        }
+        let off = layout.trans_offset();
+        for a in 0..3 {
+            frame[off + a] = (frame[off + a] as f64 + w * self.trans[a]) as f32;
+        }
+        for (j, r) in self.rot.iter().enumerate() {
+            let b = off + 3 + 9 * j;
+            let d = axis_angle_to_matrix([w * r[0], w * r[1], w * r[2]]);
+            let m = matmul(&d, &block(frame, b));
+            for (x, v) in frame[b..b + 9].iter_mut().zip(m) {
+                *x = v as f32;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rotation::IDENTITY;
+
+    fn frame(layout: Layout, trans: [f64; 3], rot: &[[f64; 3]; 24]) -> Vec<f32> {
+        let off = layout.trans_offset();
+        let mut f = vec![0.0f32; layout.dim()];
+        for a in 0..3 {
+            f[off + a] = trans[a] as f32;
+        }
+        for (j, r) in rot.iter().enumerate() {
+            let m = axis_angle_to_matrix(*r);
+            for k in 0..9 {
+                f[off + 3 + 9 * j + k] = m[k] as f32;
+            }
+        }
+        f
+    }
+
+    #[test]
+    fn weight_falls_smoothly_from_one_to_zero() {
+        assert_eq!(weight(0, 10), 1.0);
+        assert_eq!(weight(5, 10), 0.5);
+        assert_eq!(weight(10, 10), 0.0);
+        assert_eq!(weight(11, 10), 0.0);
+        assert_eq!(weight(0, 0), 0.0);
+        let w: Vec<f64> = (0..=10).map(|k| weight(k, 10)).collect();
+        assert!(w.windows(2).all(|p| p[1] <= p[0]));
+    }
+
+    /// With the full gap the first generated frame becomes the seed's continuation; without it
+    /// the frame is unchanged.
+    #[test]
+    fn full_weight_continues_the_seed() {
+        for layout in [Layout::L225, Layout::L219] {
+            let mut rot = [[0.0; 3]; 24];
+            let prev = frame(layout, [0.0, 1.0, 0.0], &rot);
+            rot[3] = [0.0, 0.0, 0.1];
+            rot[18] = [0.2, -0.1, 0.0];
+            let last = frame(layout, [0.01, 1.0, 0.0], &rot);
+            let first = frame(layout, [-0.03, 0.95, 0.04], &[[0.3, 0.2, -0.4]; 24]);
+            let seam = Seam::measure(&prev, &last, &first, layout);
+            let mut eased = first.clone();
+            seam.apply(&mut eased, 1.0, layout);
+            let off = layout.trans_offset();
+            // Translation moves on by the last step: 0.02, 1.0, 0.0.
+            for (a, want) in [0.02, 1.0, 0.0].iter().enumerate() {
+                assert!((eased[off + a] as f64 - want).abs() < 1e-6);
+            }
+            // Rotations move on by the last step too: joint 3 to 0.2 rad about z, joint 0 stays.
+            let r3 = matrix_to_axis_angle(&block(&eased, off + 3 + 9 * 3));
+            assert!((r3[2] - 0.2).abs() < 1e-5 && r3[0].abs() < 1e-5, "{r3:?}");
+            let r0 = block(&eased, off + 3);
+            assert!(r0.iter().zip(IDENTITY).all(|(a, b)| (a - b).abs() < 1e-5));
+            let mut same = first.clone();
+            seam.apply(&mut same, 0.0, layout);
+            assert_eq!(same, first);
+        }
+    }
+}
