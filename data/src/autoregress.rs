@@ -184,8 +184,9 @@ pub fn autoregress<E>(
             }
             if i < opts.seam_frames {
                 if i == 0 {
-                    let prev =
-                        &windows[k][ml.saturating_sub(2) * d..(ml.saturating_sub(2) + 1) * d];
+                    // The seed's second-to-last frame (its last one for a 1-frame seed).
+                    let p = ml.saturating_sub(2);
+                    let prev = &windows[k][p * d..(p + 1) * d];
                     seams[k] = Some(Seam::measure(prev, last, &y, opts.layout));
                 }
                 if let Some(s) = &seams[k] {

@@ -59,6 +59,10 @@ pub struct RunReport {
     /// Passes averaged per frame (temporal ensembling; 1 = token 0 only).
     #[serde(default = "one")]
     pub ensemble: usize,
+    /// Frames over which the jump at the seed's end faded out (0 = off; reports written before
+    /// the option existed were sampled without it).
+    #[serde(default)]
+    pub seam_frames: usize,
     pub pairings: Vec<Pairing>,
     pub reports: Vec<MetricsReport>,
     /// With `--baselines`: the chance baselines, scored like the first report.
@@ -480,19 +484,21 @@ pub fn evaluate_run_full(
         frames: args.max_frames,
         feedback_project: opts.feedback_project,
         ensemble: opts.ensemble,
+        seam_frames: opts.seam_frames,
         pairings: pairings_out,
         reports: reports.clone(),
         baselines,
     };
     write_json_atomic(&out_dir.join("report.json"), &report)?;
     let md = format!(
-        "# Evaluation of {} ({:?} protocol, {} sequences, seed = first {seed_frames} GT frames, up to {} generated frames, {} feedback, {} pass(es) per frame)\n\n{table}",
+        "# Evaluation of {} ({:?} protocol, {} sequences, seed = first {seed_frames} GT frames, up to {} generated frames, {} feedback, {} pass(es) per frame, seed's end eased over {} frames)\n\n{table}",
         ck.dir.display(),
         args.protocol,
         report.pairings.len(),
         args.max_frames,
         if opts.feedback_project { "projected" } else { "raw" },
-        opts.ensemble
+        opts.ensemble,
+        opts.seam_frames
     );
     qean_data::fsutil::atomic_write(&out_dir.join("report.md"), md.as_bytes())?;
     let file = EvaluationFile { reports };
