@@ -16,11 +16,11 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
-use qean_data::fsutil::atomic_write;
-use qean_data::synth::{self, RealTrack, SynthOptions};
 use qean_eval::motion_energy::{motion_energy, EnergyReference, MotionEnergy};
 use qean_eval::report::MetricsReport;
 use qean_eval::run_eval::RunReport;
+use qean_io::fsutil::atomic_write;
+use qean_synth::{self as synth, RealTrack, SynthOptions};
 use qean_train::checkpoint::Checkpoint;
 use qean_train::generate::{self, GenerateOptions, SeedSource};
 use qean_train::run_config::string_override;
@@ -390,16 +390,16 @@ fn dance(
         .map(|e| dir.join(format!("{stem}.{e}")))
         .collect();
     if marker_matches(&marker, ck) && expected.iter().all(|p| p.is_file()) {
-        if let Ok(joints) = qean_eval::io::read_joints(&expected[1], qean_data::FkRoot::Smpl) {
+        if let Ok(joints) = qean_eval::io::read_joints(&expected[1], qean_motion::FkRoot::Smpl) {
             say(format!("dance {name}: reusing {}", dir.display()));
             return Ok((expected, joints));
         }
     }
     let song = generate::load_song(&out.join(HELD_OUT), Some(stem), ck.config.model.audio_len)?;
     // Seed: the opening of the first test sequence (a pose the models know, unlike a T-pose).
-    let ds = qean_data::dataset::Dataset::open(data)?;
+    let ds = qean_aistpp::dataset::Dataset::open(data)?;
     let first = ds
-        .split(qean_data::dataset::Split::Test)
+        .split(qean_aistpp::dataset::Split::Test)
         .into_iter()
         .next()
         .context("the demo dataset has no test sequence")?;
@@ -423,7 +423,7 @@ fn dance(
         &seed,
         &GenerateOptions {
             frames,
-            audio_pad: qean_data::autoregress::AudioPad::Stop,
+            audio_pad: qean_models::autoregress::AudioPad::Stop,
             feedback_project: ck.config.recipe.feedback_project,
             ensemble: ck.config.recipe.ensemble,
             ensemble_decay: ck.config.recipe.ensemble_decay,
@@ -662,7 +662,8 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
             })
         }
     };
-    let reference = qean_eval::run_eval::dataset_energy_reference(&data, qean_data::FkRoot::Smpl)?;
+    let reference =
+        qean_eval::run_eval::dataset_energy_reference(&data, qean_motion::FkRoot::Smpl)?;
     let mut models = Vec::new();
     for (name, label, (ck, seconds, loss)) in trained {
         let run_dir = out.join("runs").join(name);

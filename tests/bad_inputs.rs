@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 
 mod common;
 use common::*;
-use qean_data::testdata::{npy_bytes, wav_bytes};
+use qean_io::testdata::{npy_bytes, wav_bytes};
 
 /// A 16-bit PCM WAV with a hand-written header, so that every field can be made wrong.
 fn wav(samples: &[i16], channels: u16, rate: u32, format: u16) -> Vec<u8> {
@@ -148,13 +148,13 @@ fn every_bad_input_fails_cleanly_and_changes_nothing() {
     let reference = w.data.join("motions");
     let good_pkl =
         std::fs::read(shared().join("aistpp/motions/softcat477_sample_with_scaling.pkl")).unwrap();
-    let motion = qean_data::Motion::read_pkl(
+    let motion = qean_motion::Motion::read_pkl(
         &shared().join("aistpp/motions/softcat477_sample_with_scaling.pkl"),
     )
     .unwrap();
     let n = motion.frames;
-    use qean_data::pickle::{dumps_dict, ArrayRef::F64};
-    let pkl = |items: &[(&str, &[usize], qean_data::pickle::ArrayRef)]| dumps_dict(items, &[]);
+    use qean_io::pickle::{dumps_dict, ArrayRef::F64};
+    let pkl = |items: &[(&str, &[usize], qean_io::pickle::ArrayRef)]| dumps_dict(items, &[]);
     let song = clicks(8.0);
 
     // Audio.

@@ -60,7 +60,7 @@ fn synth_then_inspect_and_joints() {
         .status()
         .unwrap();
     assert!(st.success());
-    let arr = qean_data::npy::read(&j).unwrap();
+    let arr = qean_io::npy::read(&j).unwrap();
     assert_eq!(arr.shape[1..], [24, 3]);
     assert!(arr.shape[0] >= 200);
 
@@ -133,17 +133,17 @@ fn bad_inputs_fail_cleanly() {
     let garbage = dir.join("garbage.pkl");
     std::fs::write(&garbage, b"this is not a pickle at all").unwrap();
 
-    let motion = qean_data::Motion::read_pkl(
+    let motion = qean_motion::Motion::read_pkl(
         &shared().join("aistpp/motions/softcat477_sample_with_scaling.pkl"),
     )
     .unwrap();
     let n = motion.frames;
-    let write = |name: &str, items: &[(&str, &[usize], qean_data::pickle::ArrayRef)]| {
+    let write = |name: &str, items: &[(&str, &[usize], qean_io::pickle::ArrayRef)]| {
         let p = dir.join(name);
-        std::fs::write(&p, qean_data::pickle::dumps_dict(items, &[])).unwrap();
+        std::fs::write(&p, qean_io::pickle::dumps_dict(items, &[])).unwrap();
         p
     };
-    use qean_data::pickle::ArrayRef::F64;
+    use qean_io::pickle::ArrayRef::F64;
     let missing = write(
         "missing.pkl",
         &[("smpl_poses", &[n, 72], F64(&motion.poses))],
@@ -346,15 +346,15 @@ fn features_of_a_synthetic_dataset() {
     };
     assert!(run().contains("0 already cached"));
     assert!(run().contains(" 0 computed"));
-    let d = qean_data::dataset::Dataset::open(&ds).unwrap();
+    let d = qean_aistpp::dataset::Dataset::open(&ds).unwrap();
     let mut checked = 0;
     for id in ["mBR0", "mHO5"] {
-        if qean_data::dataset::Dataset::music_ids(&d.all_sequences().unwrap())
+        if qean_aistpp::dataset::Dataset::music_ids(&d.all_sequences().unwrap())
             .contains(&id.to_string())
         {
-            let (f, frames) = qean_data::feature_cache::load(&d, id).unwrap();
+            let (f, frames) = qean_aistpp::feature_cache::load(&d, id).unwrap();
             let beats: Vec<usize> = (0..frames).filter(|&t| f[t * 35 + 34] > 0.5).collect();
-            let bpm = qean_data::names::tempo_prior(id).unwrap();
+            let bpm = qean_aistpp::names::tempo_prior(id).unwrap();
             let period = 3600.0 / bpm;
             let gaps: Vec<f64> = beats.windows(2).map(|w| (w[1] - w[0]) as f64).collect();
             let mean = gaps.iter().sum::<f64>() / gaps.len() as f64;

@@ -75,7 +75,7 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
         ] {
             assert!(dir.join(f).is_file(), "{model}/{f} missing:\n{table}");
         }
-        let joints = qean_data::npy::read(&dir.join("Vibe_Ace.joints.npy")).unwrap();
+        let joints = qean_io::npy::read(&dir.join("Vibe_Ace.joints.npy")).unwrap();
         // The quick demo's seed is 30 frames.
         assert_eq!(joints.shape, vec![1230, 24, 3]);
         let (w, h, bytes) = png_size(&dir.join("Vibe_Ace.png"));

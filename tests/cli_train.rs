@@ -343,7 +343,7 @@ fn sample_writes_a_1200_frame_dance_for_vibe_ace_in_every_format() {
     ] {
         assert!(out.join(f).is_file(), "{f}: {text}");
     }
-    let joints = qean_data::npy::read(&out.join("vibe.joints.npy")).unwrap();
+    let joints = qean_io::npy::read(&out.join("vibe.joints.npy")).unwrap();
     assert_eq!(joints.shape, vec![1320, 24, 3]);
     let png = std::fs::read(out.join("vibe.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");

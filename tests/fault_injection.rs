@@ -264,7 +264,7 @@ fn the_feature_cache_killed_mid_way_ends_with_the_same_files() {
         // Whatever is in the cache is whole: every .npy parses with the right width.
         for (name, bytes) in cached(&copy) {
             if name.ends_with(".npy") {
-                let a = qean_data::npy::parse(&bytes)
+                let a = qean_io::npy::parse(&bytes)
                     .unwrap_or_else(|e| panic!("{name}: half-written: {e}"));
                 assert_eq!(a.shape[1], 35, "{name}");
             }

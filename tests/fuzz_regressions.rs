@@ -111,9 +111,9 @@ fn pickle_reader_survives_mutations_and_regressions() {
     let path = dir.path().join("m.pkl");
     exercise("pickle", &seeds, 3000, |input| {
         no_panic("pickle", input, || {
-            let _ = qean_data::pickle::loads(input);
+            let _ = qean_io::pickle::loads(input);
             std::fs::write(&path, input).unwrap();
-            if let Err(e) = qean_data::Motion::read_pkl(&path) {
+            if let Err(e) = qean_motion::Motion::read_pkl(&path) {
                 assert!(e.to_string().contains("m.pkl"), "{e}");
             }
         })
@@ -125,28 +125,28 @@ fn npy_reader_survives_mutations_and_regressions() {
     let joints: Vec<[f64; 3]> = (0..24 * 10).map(|i| [i as f64, 0.5, -1.0]).collect();
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("j.npy");
-    qean_data::npy::write_joints(&p, &joints).unwrap_or_else(|e| panic!("{e}"));
+    qean_motion::joints_file::write_joints(&p, &joints).unwrap_or_else(|e| panic!("{e}"));
     let seeds = vec![std::fs::read(&p).unwrap()];
     exercise("npy", &seeds, 3000, |input| {
         no_panic("npy", input, || {
-            let _ = qean_data::npy::parse(input);
+            let _ = qean_io::npy::parse(input);
         })
     });
 }
 
 #[test]
 fn bvh_reader_survives_mutations_and_regressions() {
-    let motion = qean_data::Motion::read_pkl(
+    let motion = qean_motion::Motion::read_pkl(
         &shared().join("aistpp/motions/softcat477_sample_with_scaling.pkl"),
     )
     .unwrap();
-    let text = qean_data::bvh::to_bvh(&motion, qean_data::FkRoot::Smpl);
+    let text = qean_motion::bvh::to_bvh(&motion, qean_motion::FkRoot::Smpl);
     // Keep the seed short: the hierarchy and a few frames.
     let short: String = text.lines().take(140).collect::<Vec<_>>().join("\n");
     exercise("bvh", &[short.into_bytes()], 3000, |input| {
         no_panic("bvh", input, || {
             if let Ok(t) = std::str::from_utf8(input) {
-                if let Ok(m) = qean_data::bvh::parse(t, 0.01) {
+                if let Ok(m) = qean_motion::bvh::parse(t, 0.01) {
                     let _ = m.smpl_positions();
                 }
             }
@@ -194,7 +194,7 @@ fn audio_decoder_survives_mutations_and_regressions() {
         let path = dir.path().join(format!("a.{ext}"));
         std::fs::write(&path, body).unwrap();
         no_panic("audio", input, || {
-            if let Err(e) = qean_data::audio::decode::decode_file(&path, 30.0) {
+            if let Err(e) = qean_audio::decode::decode_file(&path, 30.0) {
                 assert!(e.to_string().contains(&format!("a.{ext}")), "{e}");
             }
         });

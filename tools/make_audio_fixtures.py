@@ -8,7 +8,7 @@ Reference: librosa 0.8.1 + resampy 0.2.2 (install into a venv outside the repo, 
 Run from the repo root:
     /work/venv-librosa/bin/python tools/make_audio_fixtures.py [MUSIC_DIR] [OUT_DIR] [DEBUG_DIR]
     /work/venv-librosa/bin/python tools/make_audio_fixtures.py --formats-only [MUSIC_DIR] [OUT_DIR]
-MUSIC_DIR defaults to ../shared/data/music, OUT_DIR to data/tests/fixtures/audio. DEBUG_DIR (optional, not
+MUSIC_DIR defaults to ../shared/data/music, OUT_DIR to audio/tests/fixtures. DEBUG_DIR (optional, not
 committed) receives large intermediates (resampled signals, CQT magnitudes).
 The feature assembly follows mint's tools/preprocessing.py (cache_audio_features).
 """
@@ -57,7 +57,7 @@ def features(y, start_bpm):
 
 def main():
     music = sys.argv[1] if len(sys.argv) > 1 else "../shared/data/music"
-    out = sys.argv[2] if len(sys.argv) > 2 else "data/tests/fixtures/audio"
+    out = sys.argv[2] if len(sys.argv) > 2 else "audio/tests/fixtures"
     debug = sys.argv[3] if len(sys.argv) > 3 else None
     os.makedirs(out, exist_ok=True)
     if debug:
@@ -181,8 +181,8 @@ def make_format_fixtures(music, out):
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "--formats-only":
         make_format_fixtures(sys.argv[2] if len(sys.argv) > 2 else "../shared/data/music",
-                             sys.argv[3] if len(sys.argv) > 3 else "data/tests/fixtures/audio")
+                             sys.argv[3] if len(sys.argv) > 3 else "audio/tests/fixtures")
     else:
         main()
         make_format_fixtures(sys.argv[1] if len(sys.argv) > 1 else "../shared/data/music",
-                             sys.argv[2] if len(sys.argv) > 2 else "data/tests/fixtures/audio")
+                             sys.argv[2] if len(sys.argv) > 2 else "audio/tests/fixtures")

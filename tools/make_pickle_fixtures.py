@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Regenerate data/tests/fixtures/pickle/: small AIST++-style pickles and .npy files written by numpy itself,
+"""Regenerate motion/tests/fixtures/pickle/: small AIST++-style pickles and .npy files written by numpy itself,
 one per pickle protocol (2-5), dtype, byte order and memory order, for the Rust readers' parity tests.
 
 Usage: python3 tools/make_pickle_fixtures.py   (needs numpy; the numpy major version is recorded in the names)
@@ -10,7 +10,7 @@ import pickle
 
 import numpy as np
 
-out = os.path.join(os.path.dirname(__file__), "..", "data", "tests", "fixtures", "pickle")
+out = os.path.join(os.path.dirname(__file__), "..", "motion", "tests", "fixtures", "pickle")
 os.makedirs(out, exist_ok=True)
 np_major = int(np.__version__.split(".")[0])
 rng = np.random.default_rng(0)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Peer of `qean bench` (features): librosa 0.8.1 (+ resampy 0.2.2) computing the 35-D FACT feature of one
 track, as mint's cache_audio_features does. Also the peer of
-`cargo run --release -p qean-data --example bench_features` (a stage breakdown of ours).
+`cargo run --release -p qean-audio --example bench_features` (a stage breakdown of ours).
 
     VENV/bin/python bench/peer/features_librosa.py PATH [--repeats N]
 

@@ -19,7 +19,7 @@
 //! - `ensemble`, `ensemble_decay`: at inference, each frame the weighted mean of the predictions
 //!   the last `ensemble` passes made for it (temporal ensembling; 1 = token 0 only, mint);
 //! - `seam_frames`: at inference, the jump between the seed and the first generated frame
-//!   faded out over this many frames (inertialization, `qean_data::seam`);
+//!   faded out over this many frames (inertialization, `qean_motion::seam`);
 //! - `audio_norm`: music features standardised with the training split's statistics;
 //! - `predict`: future poses (mint) or offsets from the last input frame.
 //!

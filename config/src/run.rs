@@ -8,8 +8,8 @@
 use std::path::{Path, PathBuf};
 
 use crate::model::{load_merged_table_checked, ConfigError, ModelConfig};
-use qean_data::motion::Layout;
-use qean_data::windows::WindowSpec;
+use qean_aistpp::windows::WindowSpec;
+use qean_motion::motion::Layout;
 use serde::{Deserialize, Serialize};
 
 use crate::recipe::RecipeConfig;
@@ -273,7 +273,7 @@ impl RunConfig {
         self.recipe
             .validate(self.model.motion_len, self.model.target_len)?;
         for split in [&self.data.train_split, &self.data.val_split] {
-            if !split.is_empty() && split.parse::<qean_data::dataset::Split>().is_err() {
+            if !split.is_empty() && split.parse::<qean_aistpp::dataset::Split>().is_err() {
                 return Err(format!(
                     "data split `{split}` is not one of train, val, test"
                 ));

@@ -22,7 +22,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use qean_data::error::{Error, Result};
+use qean_io::error::{Error, Result};
 use serde::Deserialize;
 
 use crate::run::RunConfig;

@@ -137,10 +137,10 @@ pub enum RootArg {
 }
 
 impl RootArg {
-    pub fn fk(self) -> qean_data::FkRoot {
+    pub fn fk(self) -> qean_motion::FkRoot {
         match self {
-            RootArg::Smpl => qean_data::FkRoot::Smpl,
-            RootArg::Edge => qean_data::FkRoot::Edge,
+            RootArg::Smpl => qean_motion::FkRoot::Smpl,
+            RootArg::Edge => qean_motion::FkRoot::Edge,
         }
     }
 }
@@ -234,16 +234,16 @@ pub fn music_beats<'a>(
     names: impl Iterator<Item = &'a str>,
     source: MusicBeatSource,
 ) -> anyhow::Result<HashMap<String, Vec<usize>>> {
-    use qean_data::audio;
+    use qean_audio as audio;
     if !dir.is_dir() {
         bail!("{}: music directory does not exist", dir.display());
     }
-    let mut ids: Vec<String> = names.filter_map(qean_data::names::music_id_of).collect();
+    let mut ids: Vec<String> = names.filter_map(qean_aistpp::names::music_id_of).collect();
     ids.sort();
     ids.dedup();
     let mut out = HashMap::new();
     for id in ids {
-        let Some(path) = qean_data::dataset::AUDIO_EXTENSIONS
+        let Some(path) = qean_aistpp::dataset::AUDIO_EXTENSIONS
             .iter()
             .map(|e| dir.join(format!("{id}.{e}")))
             .find(|p| p.is_file())
@@ -257,7 +257,11 @@ pub fn music_beats<'a>(
                 audio::hpss::bailando_beats(&a.samples, audio::SR as f64).beats
             }
             MusicBeatSource::Feature35 => {
-                audio::features_for_file(&path, &audio::FeatureOptions::for_name(&id))?.beats
+                audio::features_for_file(
+                    &path,
+                    &audio::FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(&id)),
+                )?
+                .beats
             }
         };
         out.insert(id, beats);

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use clap::Parser;
-use qean_data::render::canvas::*;
+use qean_render::canvas::*;
 
 use crate::run_eval::RunReport;
 
@@ -537,9 +537,9 @@ pub fn run(a: &CurvesArgs) -> anyhow::Result<String> {
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("{}: cannot create", a.out.display()))?;
     let table = table(&runs);
-    qean_data::fsutil::atomic_write(&a.out.join("curves.png"), &figure(&runs, &a.title).to_png())?;
-    qean_data::fsutil::atomic_write(&a.out.join("curves.csv"), csv(&runs).as_bytes())?;
-    qean_data::fsutil::atomic_write(&a.out.join("table.md"), table.as_bytes())?;
+    qean_io::fsutil::atomic_write(&a.out.join("curves.png"), &figure(&runs, &a.title).to_png())?;
+    qean_io::fsutil::atomic_write(&a.out.join("curves.csv"), csv(&runs).as_bytes())?;
+    qean_io::fsutil::atomic_write(&a.out.join("table.md"), table.as_bytes())?;
     Ok(table)
 }
 

@@ -54,7 +54,7 @@ fn pick(s: BeatScores, variant: BaVariant) -> Option<f64> {
 }
 
 fn music_id(name: &str) -> Result<String> {
-    qean_data::names::music_id_of(name).ok_or_else(|| Error::Sequence {
+    qean_aistpp::names::music_id_of(name).ok_or_else(|| Error::Sequence {
         name: name.to_string(),
         message: "no AIST++ music ID (e.g. mBR0) in the name, needed to find its music beats"
             .into(),

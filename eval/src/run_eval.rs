@@ -9,11 +9,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use indicatif::{ProgressBar, ProgressStyle};
-use qean_data::autoregress::{AudioPad, SampleOptions, SampleRequest};
-use qean_data::dataset::{Dataset, Split};
-use qean_data::feature_cache;
-use qean_data::motion::Motion;
-use qean_data::names::music_id_of;
+use qean_aistpp::dataset::{Dataset, Split};
+use qean_aistpp::feature_cache;
+use qean_aistpp::names::music_id_of;
+use qean_models::autoregress::{AudioPad, SampleOptions, SampleRequest};
+use qean_motion::motion::Motion;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
@@ -191,7 +191,7 @@ pub fn pairings(names: &[String], protocol: Protocol) -> Vec<(String, String, St
 /// length, as the metrics' reference set (SPEC §1.6).
 pub fn dataset_energy_reference(
     data: &Path,
-    root: qean_data::FkRoot,
+    root: qean_motion::FkRoot,
 ) -> anyhow::Result<EnergyReference> {
     let ds = Dataset::open(data)?;
     let mut sequences = Vec::new();
@@ -224,7 +224,7 @@ pub fn cached_energy_reference(data: &Path, cache: &Path) -> anyhow::Result<Ener
     {
         return Ok(c.reference);
     }
-    let reference = dataset_energy_reference(data, qean_data::FkRoot::Smpl)?;
+    let reference = dataset_energy_reference(data, qean_motion::FkRoot::Smpl)?;
     let _ = write_json_atomic(
         cache,
         &Cached {
@@ -302,7 +302,7 @@ pub fn evaluate_run_full(
         let (audio, _) = feature_cache::load(&ds, music)?;
         let audio = config
             .recipe
-            .model_audio(audio, qean_data::windows::AUDIO_DIM);
+            .model_audio(audio, qean_aistpp::windows::AUDIO_DIM);
         requests.push(SampleRequest {
             seed: m.slice(0, seed_frames).to_layout(layout),
             audio,
@@ -373,7 +373,10 @@ pub fn evaluate_run_full(
         let m = Motion::from_layout(dance, layout)
             .map_err(|e| anyhow::anyhow!("generated {name}: {e}"))?;
         let points = m.joints(root);
-        qean_data::npy::write_joints(&joints_dir.join(format!("{name}.joints.npy")), &points)?;
+        qean_motion::joints_file::write_joints(
+            &joints_dir.join(format!("{name}.joints.npy")),
+            &points,
+        )?;
         generated.push(Sequence {
             name: name.clone(),
             joints: frames_of(points),
@@ -500,7 +503,7 @@ pub fn evaluate_run_full(
         opts.ensemble,
         opts.seam_frames
     );
-    qean_data::fsutil::atomic_write(&out_dir.join("report.md"), md.as_bytes())?;
+    qean_io::fsutil::atomic_write(&out_dir.join("report.md"), md.as_bytes())?;
     let file = EvaluationFile { reports };
     if let Some(path) = &args.json {
         write_json_atomic(path, &file)?;

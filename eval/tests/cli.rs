@@ -29,7 +29,7 @@ fn write_npy(path: &Path, joints: &[Frame], f32_dtype: bool, flat: bool) {
             }
         }
     }
-    std::fs::write(path, qean_data::testdata::npy_bytes(descr, &shape, &bytes)).unwrap();
+    std::fs::write(path, qean_io::testdata::npy_bytes(descr, &shape, &bytes)).unwrap();
 }
 
 fn fixture(dir: &Path) {
@@ -117,7 +117,7 @@ fn f32_and_f64_npy_give_the_same_features_to_f32_precision() {
     let j = synthetic_motion(3, 50);
     write_npy(&tmp.path().join("a.npy"), &j, true, false);
     write_npy(&tmp.path().join("b.npy"), &j, false, true);
-    let root = qean_data::FkRoot::Smpl;
+    let root = qean_motion::FkRoot::Smpl;
     let a = qean_eval::io::read_joints(&tmp.path().join("a.npy"), root).unwrap();
     let b = qean_eval::io::read_joints(&tmp.path().join("b.npy"), root).unwrap();
     assert_eq!(b, j);

@@ -184,7 +184,7 @@ fn constant_features_stay_finite() {
 #[test]
 fn sequence_without_music_beats_is_left_out_of_beat_align() {
     let (g, r) = sets(4, 6, 200);
-    let silent_id = qean_data::names::music_id_of(&g[0].name).unwrap();
+    let silent_id = qean_aistpp::names::music_id_of(&g[0].name).unwrap();
     let beats = move |id: &str| -> qean_eval::Result<Vec<usize>> {
         Ok(if id == silent_id {
             vec![]

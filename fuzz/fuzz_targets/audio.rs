@@ -12,5 +12,5 @@ fuzz_target!(|data: &[u8]| {
     };
     let ext = ["wav", "ogg", "mp3", "flac"][pick as usize % 4];
     let path = common::scratch(&format!("audio.{ext}"), body);
-    let _ = qean_data::audio::decode::decode_file(&path, 30.0);
+    let _ = qean_audio::decode::decode_file(&path, 30.0);
 });

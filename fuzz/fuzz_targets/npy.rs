@@ -3,5 +3,5 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = qean_data::npy::parse(data);
+    let _ = qean_io::npy::parse(data);
 });

@@ -6,7 +6,7 @@ use libfuzzer_sys::fuzz_target;
 mod common;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = qean_data::pickle::loads(data);
+    let _ = qean_io::pickle::loads(data);
     let path = common::scratch("motion.pkl", data);
-    let _ = qean_data::Motion::read_pkl(&path);
+    let _ = qean_motion::Motion::read_pkl(&path);
 });

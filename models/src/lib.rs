@@ -12,6 +12,7 @@
 //! - [`backend::device`]: `flex | ndarray | wgpu` by name.
 
 pub mod attention;
+pub mod autoregress;
 pub mod backend;
 /// The `[model]` schema lives in qean-config (no Burn); re-exported under its old path.
 pub use qean_config::model as config;

@@ -1,11 +1,11 @@
 //! The autoregressive sampler of SPEC §6 on a Burn model: the loop itself is
-//! [`qean_data::autoregress::autoregress`] (plain Rust, tested with stub models); this file
+//! [`crate::autoregress::autoregress`] (plain Rust, tested with stub models); this file
 //! supplies the model pass — one forward per generated frame for the whole batch, keeping the
 //! first output token.
 
+use crate::autoregress::{autoregress, SampleOptions, SampleRequest};
 use burn::tensor::{Device, Tensor, TensorData};
-use qean_data::autoregress::{autoregress, SampleOptions, SampleRequest};
-use qean_data::windows::AUDIO_DIM;
+use qean_aistpp::windows::AUDIO_DIM;
 
 use crate::model::DanceGenerator;
 
@@ -67,8 +67,8 @@ mod tests {
     use super::*;
     use crate::config::{Arch, AttentionKind, PositionKind};
     use crate::{DanceModel, ModelConfig};
-    use qean_data::motion::Layout;
-    use qean_data::windows::WindowSpec;
+    use qean_aistpp::windows::WindowSpec;
+    use qean_motion::motion::Layout;
 
     fn tiny() -> ModelConfig {
         ModelConfig {

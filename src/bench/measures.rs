@@ -5,11 +5,11 @@ use std::time::Instant;
 
 use burn::module::Module;
 use burn::tensor::{Device, Tensor, TensorData};
-use qean_data::audio::{features_for_file, FeatureOptions};
-use qean_data::autoregress::{SampleOptions, SampleRequest};
-use qean_data::windows::AUDIO_DIM;
+use qean_aistpp::windows::AUDIO_DIM;
+use qean_audio::{features_for_file, FeatureOptions};
 use qean_eval::synthetic::SyntheticSet;
 use qean_eval::{evaluate, EvalConfig, Sequence};
+use qean_models::autoregress::{SampleOptions, SampleRequest};
 use qean_models::sampler::sample;
 use qean_models::DanceModel;
 use qean_train::trainer::{adam, update};
@@ -159,21 +159,21 @@ impl Inputs {
         let inputs = Inputs::open(dir, sizes);
         crate::demo::write_assets(dir)?;
         let source = dir.join("assets/music/Kevin_MacLeod_-_Vibe_Ace.ogg");
-        let decoded = qean_data::audio::decode::decode_file(&source, 3600.0)?;
+        let decoded = qean_audio::decode::decode_file(&source, 3600.0)?;
         let song: Vec<f64> = decoded.samples.iter().map(|&v| v as f64).collect();
-        let song = qean_data::audio::resample::resample_with(
+        let song = qean_audio::resample::resample_with(
             &song,
             decoded.rate as f64,
             sizes.track_rate as f64,
-            qean_data::audio::Resampler::KaiserFast,
+            qean_audio::Resampler::KaiserFast,
             false,
             false,
         )?;
         // Loop the song if it is shorter than the track.
         let want = (sizes.track_seconds * sizes.track_rate as f64).round() as usize;
         let samples: Vec<f64> = song.iter().cycle().take(want).copied().collect();
-        qean_data::wav::write_pcm16(&inputs.track, &samples, sizes.track_rate)?;
-        qean_data::fsutil::atomic_write(
+        qean_io::wav::write_pcm16(&inputs.track, &samples, sizes.track_rate)?;
+        qean_io::fsutil::atomic_write(
             &inputs.set_json,
             serde_json::to_string(&inputs.set)?.as_bytes(),
         )?;

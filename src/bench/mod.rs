@@ -72,7 +72,7 @@ pub fn run(opts: &BenchOptions, mut progress: impl FnMut(&str)) -> anyhow::Resul
     std::fs::create_dir_all(&opts.work_dir)?;
     let inputs = measures::Inputs::prepare(&opts.work_dir, &opts.sizes)?;
     let sizes_json = opts.work_dir.join(SIZES_FILE);
-    qean_data::fsutil::atomic_write(&sizes_json, serde_json::to_string(&opts.sizes)?.as_bytes())?;
+    qean_io::fsutil::atomic_write(&sizes_json, serde_json::to_string(&opts.sizes)?.as_bytes())?;
     let mut entries = Vec::new();
     for &id in &opts.measures {
         let backends: Vec<&str> = if id.uses_model() {

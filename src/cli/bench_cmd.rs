@@ -139,10 +139,10 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
     let table = bench::markdown(&report);
     print!("{table}");
     if let Some(p) = &a.json {
-        qean_data::fsutil::atomic_write(p, serde_json::to_string_pretty(&report)?.as_bytes())?;
+        qean_io::fsutil::atomic_write(p, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
     if let Some(p) = &a.markdown {
-        qean_data::fsutil::atomic_write(p, table.as_bytes())?;
+        qean_io::fsutil::atomic_write(p, table.as_bytes())?;
     }
     Ok(())
 }

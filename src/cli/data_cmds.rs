@@ -3,8 +3,9 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use qean_data::{synth, Motion};
 use qean_eval::cli::RootArg;
+use qean_motion::Motion;
+use qean_synth as synth;
 
 /// Make a synthetic dataset in the AIST++ layout: procedural music per music ID (WAV) and procedural dances
 /// phase-locked to it (motion pickles), with train/val/test split lists following the AIST++ naming rules.
@@ -78,7 +79,7 @@ pub struct InspectArgs {
 }
 
 pub fn inspect(a: InspectArgs) -> anyhow::Result<()> {
-    let summary = qean_data::inspect::inspect(&a.path)?;
+    let summary = qean_aistpp::inspect::inspect(&a.path)?;
     print!("{summary}");
     Ok(())
 }
@@ -98,7 +99,7 @@ pub struct JointsArgs {
 
 pub fn joints(a: JointsArgs) -> anyhow::Result<()> {
     let motion = Motion::read_pkl(&a.motion)?;
-    qean_data::npy::write_joints(&a.out, &motion.joints(a.root.fk()))?;
+    qean_motion::joints_file::write_joints(&a.out, &motion.joints(a.root.fk()))?;
     println!(
         "wrote {}: {} frames × 24 joints",
         a.out.display(),
@@ -129,7 +130,7 @@ pub struct RenderArgs {
 
 /// `x.png` → (x.png, x.gif); `x.gif` → (x.png, x.gif); `x` → (x.png, x.gif).
 fn preview_paths(out: &std::path::Path) -> (PathBuf, PathBuf) {
-    let ext = qean_data::fsutil::extension_lower(out);
+    let ext = qean_io::fsutil::extension_lower(out);
     let stem = match ext.as_str() {
         "png" | "gif" => out.with_extension(""),
         _ => out.to_path_buf(),
@@ -144,9 +145,9 @@ fn preview_paths(out: &std::path::Path) -> (PathBuf, PathBuf) {
 }
 
 pub fn render(a: RenderArgs) -> anyhow::Result<()> {
-    let joints = qean_data::joints_file::load_joints(&a.motion, a.root.fk())?;
+    let joints = qean_motion::joints_file::load_joints(&a.motion, a.root.fk())?;
     let beats = match &a.features {
-        Some(f) => Some(qean_data::render::beats_from_features(f)?),
+        Some(f) => Some(qean_render::beats_from_features(f)?),
         None => None,
     };
     let title = a
@@ -154,15 +155,15 @@ pub fn render(a: RenderArgs) -> anyhow::Result<()> {
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let preview = qean_data::render::Preview {
+    let preview = qean_render::Preview {
         title,
         joints: &joints,
-        fps: qean_data::motion::FPS,
+        fps: qean_motion::motion::FPS,
         beats: beats.as_deref(),
         seed_frames: a.seed_frames,
     };
     let (png, gif) = preview_paths(&a.out);
-    qean_data::render::write_preview(&preview, &png, &gif)?;
+    qean_render::write_preview(&preview, &png, &gif)?;
     println!("wrote {} and {}", png.display(), gif.display());
     Ok(())
 }
@@ -182,12 +183,12 @@ pub struct ConvertArgs {
 }
 
 pub fn convert(a: ConvertArgs) -> anyhow::Result<()> {
-    let motion = qean_data::motion::read_motion(&a.motion)?;
-    let ext = qean_data::fsutil::extension_lower(&a.out);
+    let motion = qean_motion::motion::read_motion(&a.motion)?;
+    let ext = qean_io::fsutil::extension_lower(&a.out);
     match ext.as_str() {
-        "bvh" => qean_data::bvh::write(&a.out, &motion, a.root.fk())?,
-        "npy" => qean_data::npy::write_joints(&a.out, &motion.joints(a.root.fk()))?,
-        "pkl" => motion.write_pkl(&a.out, qean_data::motion::Precision::F64)?,
+        "bvh" => qean_motion::bvh::write(&a.out, &motion, a.root.fk())?,
+        "npy" => qean_motion::joints_file::write_joints(&a.out, &motion.joints(a.root.fk()))?,
+        "pkl" => motion.write_pkl(&a.out, qean_motion::motion::Precision::F64)?,
         _ => anyhow::bail!(
             "{}: unknown output format (use .bvh, .npy or .pkl)",
             a.out.display()

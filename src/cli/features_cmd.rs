@@ -5,9 +5,9 @@ use std::path::PathBuf;
 use anyhow::bail;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use qean_data::audio::{self, FeatureOptions, Resampler};
-use qean_data::dataset::{Dataset, Split};
-use qean_data::feature_cache;
+use qean_aistpp::dataset::{Dataset, Split};
+use qean_aistpp::feature_cache;
+use qean_audio::{self as audio, FeatureOptions, Resampler};
 
 /// Compute the 35-D FACT music features (librosa 0.8.1 semantics: onset envelope, 20 MFCC, 12 chroma_cens,
 /// onset peaks, beats; 60 frames per second) of audio files, writing OUT/<stem>.npy (frames × 35 float32);
@@ -54,7 +54,7 @@ fn file_features(
 
 /// Options for the track `name` (`--start-bpm` is checked once in [`features`]).
 fn options(name: &str, a: &FeaturesArgs) -> FeatureOptions {
-    let mut o = FeatureOptions::for_name(name);
+    let mut o = FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(name));
     if let Some(b) = a.start_bpm {
         o.start_bpm = b;
     }
@@ -92,7 +92,7 @@ pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {
             describe,
             |path, id| {
                 let f = file_features(path, &options(id, &a), &a)
-                    .map_err(|e| qean_data::Error::msg(format!("{e:#}")))?;
+                    .map_err(|e| qean_io::Error::msg(format!("{e:#}")))?;
                 Ok((f.data, f.frames))
             },
             |done, _, id| {
@@ -143,7 +143,7 @@ pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {
     }
     pb.finish_and_clear();
     for (path, dst, f) in &done {
-        qean_data::npy::write_f32(dst, &[f.frames, audio::FEATURE_DIM], &f.data)?;
+        qean_io::npy::write_f32(dst, &[f.frames, audio::FEATURE_DIM], &f.data)?;
         println!(
             "{}: {} frames, tempo {:.2} BPM, {} beats -> {}",
             path.display(),
@@ -162,7 +162,7 @@ pub fn inspect_audio(path: &std::path::Path) -> anyhow::Result<()> {
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let opts = FeatureOptions::for_name(&stem);
+    let opts = FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(&stem));
     let audio = audio::load_audio(path, &audio::LoadOptions::default())?;
     let f = audio::music_features(&audio.samples, &opts)?;
     println!("audio: {}", path.display());

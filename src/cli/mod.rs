@@ -78,7 +78,7 @@ fn run_data(command: Command) -> anyhow::Result<()> {
         Command::Synth(a) => data_cmds::synth(a),
         Command::Features(a) => features_cmd::features(a),
         Command::Inspect(a) => {
-            let ext = qean_data::fsutil::extension_lower(&a.path);
+            let ext = qean_io::fsutil::extension_lower(&a.path);
             if matches!(ext.as_str(), "wav" | "ogg" | "mp3" | "flac") {
                 features_cmd::inspect_audio(&a.path)
             } else if a.path.join(qean_train::checkpoint::STATE_FILE).is_file() {

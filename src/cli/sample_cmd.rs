@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::bail;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use qean_data::autoregress::AudioPad;
+use qean_models::autoregress::AudioPad;
 use qean_train::checkpoint;
 use qean_train::generate::{self, GenerateOptions, SeedSource};
 

@@ -244,9 +244,9 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
         ..TrainOptions::new(&out_dir)
     };
     let frames = config.eval_frames.unwrap_or(1200);
-    let evaluator = |run_dir: &Path| -> qean_data::error::Result<Vec<(String, f64)>> {
+    let evaluator = |run_dir: &Path| -> qean_io::error::Result<Vec<(String, f64)>> {
         evaluate_checkpoint(run_dir, frames)
-            .map_err(|e| qean_data::error::Error::msg(format!("{e:#}")))
+            .map_err(|e| qean_io::error::Error::msg(format!("{e:#}")))
     };
     let evaluator_ref: Option<&sweep::Evaluator> = if config.evaluate {
         Some(&evaluator)

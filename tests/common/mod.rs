@@ -9,7 +9,7 @@ pub fn qean() -> Command {
 }
 
 pub fn shared() -> PathBuf {
-    qean_data::testdata::shared_dir()
+    qean_io::testdata::shared_dir()
 }
 
 /// Whether python3 can import `module`. When QEAN_REQUIRE_PYTHON is set (CI), a missing module is a failure,

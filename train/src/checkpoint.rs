@@ -17,8 +17,8 @@
 use std::path::{Path, PathBuf};
 
 use burn::tensor::Device;
-use qean_data::error::{Error, Result};
-use qean_data::windows::SamplerState;
+use qean_aistpp::windows::SamplerState;
+use qean_io::error::{Error, Result};
 use qean_models::DanceModel;
 use serde::{Deserialize, Serialize};
 

@@ -1,13 +1,13 @@
 //! The splits a run trains and validates on: motions in the model's layout and the 35-D music
 //! features from the dataset's feature cache (`DIR/features/`), computed on first use.
 
+use qean_aistpp::dataset::{Dataset, Split};
+use qean_aistpp::feature_cache;
+use qean_aistpp::windows::{SequenceSet, WindowSpec, AUDIO_DIM};
+use qean_audio::{self as audio, FeatureOptions};
 use qean_config::recipe::RecipeConfig;
-use qean_data::audio::{self, FeatureOptions};
-use qean_data::dataset::{Dataset, Split};
-use qean_data::error::Result;
-use qean_data::feature_cache;
-use qean_data::motion::Layout;
-use qean_data::windows::{SequenceSet, WindowSpec, AUDIO_DIM};
+use qean_io::error::Result;
+use qean_motion::motion::Layout;
 
 /// Makes sure every music ID of `names` has cached features (the default options of
 /// `qean features --dataset`), computing the missing ones.
@@ -16,10 +16,13 @@ pub fn ensure_features(ds: &Dataset, names: &[String]) -> Result<usize> {
     let computed = feature_cache::ensure(
         ds,
         &ids,
-        |id| FeatureOptions::for_name(id).cache_key(),
+        |id| FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(id)).cache_key(),
         |path, id| {
             tracing::info!("computing music features of {id} ({})", path.display());
-            let f = audio::features_for_file(path, &FeatureOptions::for_name(id))?;
+            let f = audio::features_for_file(
+                path,
+                &FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(id)),
+            )?;
             if f.is_silent() {
                 tracing::warn!(
                     "{}: the audio is silent (no onsets, no beats)",

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use burn::module::Module;
 use burn::tensor::Device;
-use qean_data::error::{Error, Result};
+use qean_io::error::{Error, Result};
 use qean_models::params::{named_parameters, parameter_shapes, params_hash, write_safetensors};
 use qean_models::{DanceModel, ModelConfig};
 

@@ -1,17 +1,17 @@
 //! Dances from a trained checkpoint (`qean sample`): music features of a song, a seed motion
 //! (a pickle, a dataset sequence, or a neutral standing pose), the autoregressive sampler
-//! (SPEC §6), and the exports of qean-data (pkl, joints .npy, BVH, previews).
+//! (SPEC §6), and the exports of qean-render (pkl, joints .npy, BVH, previews).
 
 use std::path::{Path, PathBuf};
 
-use qean_data::audio::{self, FeatureOptions, MusicFeatures};
-use qean_data::autoregress::{AudioPad, SampleOptions, SampleRequest};
-use qean_data::dataset::Dataset;
-use qean_data::error::{Error, Result};
-use qean_data::export::{export_dance, ExportOptions, ExportPaths};
-use qean_data::fk::FkRoot;
-use qean_data::motion::Motion;
-use qean_data::windows::AUDIO_DIM;
+use qean_aistpp::dataset::Dataset;
+use qean_aistpp::windows::AUDIO_DIM;
+use qean_audio::{self as audio, FeatureOptions, MusicFeatures};
+use qean_io::error::{Error, Result};
+use qean_models::autoregress::{AudioPad, SampleOptions, SampleRequest};
+use qean_motion::fk::FkRoot;
+use qean_motion::motion::Motion;
+use qean_render::export::{export_dance, ExportOptions, ExportPaths};
 
 use crate::checkpoint::Checkpoint;
 
@@ -42,7 +42,10 @@ pub fn load_song(path: &Path, name: Option<&str>, audio_len: usize) -> Result<So
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "song".into());
-    let features = audio::features_for_file(path, &FeatureOptions::for_name(&stem))?;
+    let features = audio::features_for_file(
+        path,
+        &FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(&stem)),
+    )?;
     if features.is_silent() {
         tracing::warn!(
             "{}: the audio is silent (no onsets, no beats)",
@@ -138,7 +141,7 @@ pub fn generate(
     .map_err(Error::msg)?;
     // The output directory must be writable before minutes of sampling are spent.
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
-    let probe = qean_data::fsutil::temp_sibling(&out.join("probe"));
+    let probe = qean_io::fsutil::temp_sibling(&out.join("probe"));
     std::fs::write(&probe, b"")
         .map_err(|e| Error::at(out, format!("output directory is not writable: {e}")))?;
     let _ = std::fs::remove_file(&probe);

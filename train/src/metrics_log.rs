@@ -4,7 +4,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use qean_data::error::{Error, Result};
+use qean_io::error::{Error, Result};
 
 pub const HEADER: &str = "step,lr,loss,val_loss,seconds";
 
@@ -115,7 +115,7 @@ impl MetricsLog {
             text.push_str(&r.to_line());
             text.push('\n');
         }
-        qean_data::fsutil::atomic_write(path, text.as_bytes())?;
+        qean_io::fsutil::atomic_write(path, text.as_bytes())?;
         let file = std::fs::OpenOptions::new()
             .append(true)
             .open(path)

@@ -1,7 +1,7 @@
 //! `R/loss.png`: training and validation loss against step on a log scale, drawn with the project's own raster
 //! (no font or plotting dependencies).
 
-use qean_data::render::canvas::*;
+use qean_render::canvas::*;
 
 use crate::metrics_log::Row;
 

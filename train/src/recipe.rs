@@ -11,10 +11,10 @@
 
 use burn::module::Module;
 use burn::tensor::{Device, Tensor, TensorData};
-use qean_data::autoregress::project_frame;
-use qean_data::motion::Layout;
-use qean_data::windows::{Batch, WindowSpec, AUDIO_DIM};
+use qean_aistpp::windows::{Batch, WindowSpec, AUDIO_DIM};
+use qean_models::autoregress::project_frame;
 use qean_models::{DanceGenerator, DanceModel};
+use qean_motion::motion::Layout;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -356,11 +356,11 @@ mod tests {
         let (out, _) = apply(&d, &c, &model, &device, 1, 0);
         let dim = d.dim;
         let spec = c.window_spec();
-        let req = qean_data::autoregress::SampleRequest {
+        let req = qean_models::autoregress::SampleRequest {
             seed: d.motion[..spec.motion_len * dim].to_vec(),
             audio: d.audio.clone(),
         };
-        let opts = qean_data::autoregress::SampleOptions {
+        let opts = qean_models::autoregress::SampleOptions {
             frames: 3,
             spec,
             layout: c.layout(),

@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use qean_data::error::{Error, Result};
+use qean_io::error::{Error, Result};
 
 pub const LOCK: &str = "lock";
 pub const CHECKPOINTS: &str = "checkpoints";
@@ -98,7 +98,7 @@ pub fn clean_temporaries(run_dir: &Path) -> Result<usize> {
     // The run is locked by this process, so every temporary there is a killed writer's.
     let mut n = 0;
     for dir in [run_dir.join(CHECKPOINTS), run_dir.to_path_buf()] {
-        n += qean_data::fsutil::clean_all_temporaries(&dir)?;
+        n += qean_io::fsutil::clean_all_temporaries(&dir)?;
     }
     Ok(n)
 }

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use qean_data::error::{Error, Result};
+use qean_io::error::{Error, Result};
 
 pub use qean_config::sweep::{plan, PlannedRun, SweepConfig, Variant};
 
@@ -166,7 +166,7 @@ pub fn write_summary(out_dir: &Path, results: &[RunResult]) -> Result<()> {
         csv.push('\n');
         md.push_str(" |\n");
     }
-    qean_data::fsutil::atomic_write(&out_dir.join("summary.csv"), csv.as_bytes())?;
-    qean_data::fsutil::atomic_write(&out_dir.join("summary.md"), md.as_bytes())?;
+    qean_io::fsutil::atomic_write(&out_dir.join("summary.csv"), csv.as_bytes())?;
+    qean_io::fsutil::atomic_write(&out_dir.join("summary.md"), md.as_bytes())?;
     Ok(())
 }

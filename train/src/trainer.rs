@@ -13,10 +13,10 @@ use burn::optim::decay::WeightDecayConfig;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use indicatif::{ProgressBar, ProgressStyle};
+use qean_aistpp::dataset::{Dataset, Split};
+use qean_aistpp::windows::{Batch, SequenceSet, WindowSampler};
 use qean_config::recipe::Predict;
-use qean_data::dataset::{Dataset, Split};
-use qean_data::error::{Error, Result};
-use qean_data::windows::{Batch, SequenceSet, WindowSampler};
+use qean_io::error::{Error, Result};
 use qean_models::loss::{difference_loss, motion_loss};
 use qean_models::DanceModel;
 
@@ -192,7 +192,7 @@ fn tensors(batch: &Batch, device: &Device, predict: Predict) -> (Tensor<3>, Tens
         Tensor::from_data(
             TensorData::new(
                 batch.audio.clone(),
-                [b, sp.audio_len, qean_data::windows::AUDIO_DIM],
+                [b, sp.audio_len, qean_aistpp::windows::AUDIO_DIM],
             ),
             device,
         ),
@@ -213,7 +213,7 @@ pub fn validation_loss(
     let n = all.len();
     let (sp, d) = (all.spec, all.dim);
     let per_m = sp.motion_len * d;
-    let per_a = sp.audio_len * qean_data::windows::AUDIO_DIM;
+    let per_a = sp.audio_len * qean_aistpp::windows::AUDIO_DIM;
     let per_t = sp.target_len * d;
     let mut sum = 0.0;
     let mut start = 0;
@@ -432,7 +432,7 @@ impl Session {
         }
         let state = self.state(qean_models::params::params_hash(&params));
         let config_text = self.config.to_toml();
-        qean_data::fsutil::atomic_dir(&dir, |tmp| {
+        qean_io::fsutil::atomic_dir(&dir, |tmp| {
             self.model
                 .save_weights(&tmp.join(checkpoint::MODEL_FILE))
                 .map_err(Error::msg)?;
@@ -469,7 +469,7 @@ impl Session {
         for step in run_dir::to_prune(&with_val, self.config.train.keep_last) {
             if let Some((_, dir)) = list.iter().find(|(s, _)| *s == step) {
                 // Renamed away first: a kill mid-deletion must not leave a half checkpoint.
-                qean_data::fsutil::atomic_remove_dir(dir)?;
+                qean_io::fsutil::atomic_remove_dir(dir)?;
                 tracing::info!("pruned {}", dir.display());
             }
         }
@@ -481,7 +481,7 @@ impl Session {
         let result = metrics_log::read(self.metrics.path()).and_then(|rows| {
             let title = format!("{} LOSS", self.config.summary().to_uppercase());
             let png = crate::plot::loss_plot(&rows, &title).to_png();
-            qean_data::fsutil::atomic_write(&path, &png)
+            qean_io::fsutil::atomic_write(&path, &png)
         });
         if let Err(e) = result {
             tracing::warn!("loss plot not updated: {e}");
@@ -564,7 +564,7 @@ fn train_locked(mut config: RunConfig, opts: &TrainOptions) -> Result<TrainOutco
                     dir.display(),
                     ck.state.step
                 );
-                qean_data::fsutil::atomic_remove_dir(dir)?;
+                qean_io::fsutil::atomic_remove_dir(dir)?;
             }
         }
     }
@@ -644,7 +644,7 @@ fn train_locked(mut config: RunConfig, opts: &TrainOptions) -> Result<TrainOutco
     };
 
     // The resolved config, for people and for `--resume R`.
-    qean_data::fsutil::atomic_write(&run_dir.join("config.toml"), config.to_toml().as_bytes())?;
+    qean_io::fsutil::atomic_write(&run_dir.join("config.toml"), config.to_toml().as_bytes())?;
     let metrics = MetricsLog::open(&run_dir.join("metrics.csv"), step)?;
     tracing::info!(
         "{} run {} at step {step}/{total}: {} ({} train sequences, {} val, backend {})",

@@ -1,0 +1,9 @@
+//! qean-aistpp: the AIST++ dataset. Sequence and music names (genres, tempo priors), the official splits
+//! and ignore list, dataset directories, training windows and their sampler, the music-feature cache, and
+//! `inspect` for any file or directory of the dataset.
+
+pub mod dataset;
+pub mod feature_cache;
+pub mod inspect;
+pub mod names;
+pub mod windows;

@@ -1,0 +1,67 @@
+//! Joint positions from any motion file we understand: an AIST++ pickle (forward kinematics), a `.npy` of joint
+//! positions (frames, 24, 3) or of model vectors (frames, 225 | 219), or a BVH of the SMPL skeleton.
+
+use std::path::Path;
+
+use crate::fk::FkRoot;
+use crate::motion::{Layout, Motion};
+use crate::skeleton::NUM_JOINTS;
+use qean_io::error::{Error, Result};
+
+/// Load joint positions (frames × 24, metres, +Y up) from `path`, choosing the reader by extension.
+pub fn load_joints(path: &Path, root: FkRoot) -> Result<Vec<[f64; 3]>> {
+    let ext = qean_io::fsutil::extension_lower(path);
+    let joints = match ext.as_str() {
+        "pkl" | "pickle" => Motion::read_pkl(path)?.joints(root),
+        "npy" => {
+            let a = qean_io::npy::read(path)?;
+            match a.shape.as_slice() {
+                [_, j, 3] if *j == NUM_JOINTS => a.data.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+                [_, d] if Layout::from_dim(*d).is_some() => {
+                    let v: Vec<f32> = a.data.iter().map(|&x| x as f32).collect();
+                    Motion::from_layout(&v, Layout::from_dim(*d).unwrap())
+                        .map_err(|m| Error::at(path, m))?
+                        .joints(root)
+                }
+                other => {
+                    return Err(Error::at(
+                        path,
+                        format!(
+                            "array of shape {other:?} is not a motion (expected (frames, 24, 3) joints or (frames, 225|219) vectors)"
+                        ),
+                    ))
+                }
+            }
+        }
+        "bvh" => crate::bvh::read(path)?
+            .smpl_positions()
+            .ok_or_else(|| Error::at(path, "BVH skeleton is not the 24-joint SMPL skeleton"))?,
+        _ => {
+            return Err(Error::at(
+                path,
+                "unknown motion format (expected .pkl, .npy or .bvh)",
+            ))
+        }
+    };
+    if joints.is_empty() {
+        return Err(Error::at(path, "the motion has no frames"));
+    }
+    if let Some(i) = joints.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
+        return Err(Error::at(
+            path,
+            format!("joint positions are not finite at frame {}", i / NUM_JOINTS),
+        ));
+    }
+    Ok(joints)
+}
+
+/// Joint positions (frames × 24) as a flat float32 array, the layout of `.joints.npy` files.
+pub fn joints_to_f32(joints: &[[f64; 3]]) -> Vec<f32> {
+    joints.iter().flat_map(|p| p.map(|x| x as f32)).collect()
+}
+
+/// Write joint positions (frames × 24) as a (frames, 24, 3) float32 `.npy`, atomically.
+pub fn write_joints(path: &Path, joints: &[[f64; 3]]) -> Result<()> {
+    let j = NUM_JOINTS;
+    qean_io::npy::write_f32(path, &[joints.len() / j, j, 3], &joints_to_f32(joints))
+}
