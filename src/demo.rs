@@ -7,22 +7,21 @@
 //! Every stage is resumable: a second run reuses what the first finished (the dataset, the
 //! features, finished or interrupted training runs, dances and reports of the same checkpoint).
 
-use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
-use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use qean_eval::motion_energy::{motion_energy, EnergyReference, MotionEnergy};
 use qean_eval::report::MetricsReport;
-use qean_eval::run_eval::RunReport;
+use qean_eval::run_report::RunReport;
 use qean_io::fsutil::atomic_write;
+use qean_pipeline::evaluate::{evaluate_run, RunEvalRequest};
+use qean_pipeline::generate::{self, GenerateOptions, SeedSource};
 use qean_synth::{self as synth, RealTrack, SynthOptions};
 use qean_train::checkpoint::Checkpoint;
-use qean_train::generate::{self, GenerateOptions, SeedSource};
 use qean_train::run_config::string_override;
 use qean_train::{ProgressMode, RunConfig};
 
@@ -448,7 +447,7 @@ fn dance(
     ));
     Ok((
         g.paths.all().iter().map(|p| p.to_path_buf()).collect(),
-        qean_eval::run_eval::frames_of(g.joints.clone()),
+        qean_eval::run_report::frames_of(g.joints.clone()),
     ))
 }
 
@@ -478,22 +477,14 @@ fn evaluate(
         "evaluate: {} on the test + val split",
         run_dir.display()
     ));
-    let max_frames = max_frames.to_string();
-    let args = qean_eval::cli::Args::try_parse_from([
-        OsStr::new("qean-eval"),
-        OsStr::new("--max-frames"),
-        OsStr::new(&max_frames),
-        OsStr::new("--run"),
-        run_dir.as_os_str(),
-        OsStr::new("--checkpoint"),
-        ck.dir.as_os_str(),
-        OsStr::new("--data"),
-        data.as_os_str(),
-        OsStr::new("--baselines"),
-    ])
-    .context("internal: eval arguments")?;
-    qean_eval::run_eval::evaluate_run(&args, run_dir)?;
-    Ok((read_report(&json)?, md))
+    let req = RunEvalRequest {
+        checkpoint: Some(ck.dir.to_string_lossy().into_owned()),
+        max_frames,
+        baselines: true,
+        ..RunEvalRequest::new(run_dir, data)
+    };
+    let evaluation = evaluate_run(&req)?;
+    Ok((evaluation.report, md))
 }
 
 fn read_report(path: &Path) -> anyhow::Result<RunReport> {
@@ -663,7 +654,7 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
         }
     };
     let reference =
-        qean_eval::run_eval::dataset_energy_reference(&data, qean_motion::FkRoot::Smpl)?;
+        qean_eval::run_report::dataset_energy_reference(&data, qean_motion::FkRoot::Smpl)?;
     let mut models = Vec::new();
     for (name, label, (ck, seconds, loss)) in trained {
         let run_dir = out.join("runs").join(name);

@@ -91,8 +91,9 @@ pub fn state(dataset: &Dataset, music_id: &str, audio: Option<&Path>, options: &
     }
 }
 
-/// Store freshly computed features and their record (features first: an interruption between the two leaves
-/// complete features without a record, which are still valid).
+/// Store freshly computed features and their record. Order: the old features go, then the record, then the
+/// features (atomically): an interruption at any point leaves no features (computed again next time), never
+/// features without their record (which would pass for imported ones) or a record beside older features.
 pub fn store(
     dataset: &Dataset,
     music_id: &str,
@@ -105,11 +106,10 @@ pub fn store(
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     }
     let (data, frames) = features;
-    qean_io::npy::write_f32(
-        &features_path(dataset, music_id),
-        &[*frames, AUDIO_DIM],
-        data,
-    )?;
+    let npy = features_path(dataset, music_id);
+    if npy.is_file() {
+        std::fs::remove_file(&npy).map_err(|e| Error::io(&npy, e))?;
+    }
     let (audio_file, audio_bytes, audio_mtime_ns) = audio_identity(audio)?;
     let record = CacheRecord {
         audio_file,
@@ -120,7 +120,8 @@ pub fn store(
         frames: *frames,
     };
     let json = serde_json::to_vec_pretty(&record).map_err(|e| Error::msg(e.to_string()))?;
-    atomic_write(&record_path(dataset, music_id), &json)
+    atomic_write(&record_path(dataset, music_id), &json)?;
+    qean_io::npy::write_f32(&npy, &[*frames, AUDIO_DIM], data)
 }
 
 /// Load cached (or imported) features of `music_id`, checking their shape and values.

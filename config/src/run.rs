@@ -304,9 +304,18 @@ impl RunConfig {
         }
     }
 
-    /// The config as TOML (what R/config.toml holds).
-    pub fn to_toml(&self) -> String {
-        toml::to_string(self).expect("a run config serialises to TOML")
+    /// The config as TOML (what R/config.toml holds). Fails only on paths TOML cannot hold (not UTF-8).
+    pub fn to_toml(&self) -> Result<String, String> {
+        toml::to_string(self).map_err(|e| {
+            let dir = self.data.dir.as_deref().filter(|d| d.to_str().is_none());
+            match dir {
+                Some(d) => format!(
+                    "data.dir {}: the path is not valid UTF-8, which a run's config.toml cannot store",
+                    d.display()
+                ),
+                None => format!("the run config cannot be written as TOML: {e}"),
+            }
+        })
     }
 
     /// One line: architecture, size and run length.
@@ -370,7 +379,7 @@ mod tests {
         assert_eq!(c.optim.epsilon, 1e-7);
         assert_eq!(c.model.hidden, 80);
         // The resolved TOML reads back to the same config.
-        let back = write(d.path(), "back.toml", &c.to_toml());
+        let back = write(d.path(), "back.toml", &c.to_toml().unwrap());
         assert_eq!(RunConfig::load(&back, &[]).unwrap(), c);
     }
 
@@ -437,5 +446,16 @@ mod tests {
         assert_eq!(full.train.batch_size, 16);
         assert_eq!(full.schedule.boundaries, vec![90_000, 150_000]);
         assert_eq!(full.optim.epsilon, 1e-8);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_non_utf8_data_dir_is_an_error_not_a_panic() {
+        use std::os::unix::ffi::OsStrExt;
+        let mut c = RunConfig::default();
+        c.data.dir = Some(PathBuf::from(std::ffi::OsStr::from_bytes(b"/tmp/data\xff")));
+        let e = c.to_toml().unwrap_err();
+        assert!(e.starts_with("data.dir /tmp/data"), "{e}");
+        assert!(e.contains("not valid UTF-8"), "{e}");
     }
 }

@@ -6,14 +6,12 @@
 //! markdown table of each group at its last common step: mean ± sample SD over seeds.
 
 use std::collections::BTreeMap;
-use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use clap::Parser;
 use qean_render::canvas::*;
 
-use crate::run_eval::RunReport;
+use crate::run_report::RunReport;
 
 /// The numbers read from one report (its first metrics mode).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -419,107 +417,45 @@ pub fn figure(runs: &[RunCurve], title: &str) -> Canvas {
     c
 }
 
-/// Plot metrics against training steps for runs grouped over seeds (`-seed<k>` in the name).
-///
-/// Examples:
-///   qean curves sweeps/freezing-runs --out docs/freezing/steps
-///   qean curves runs/a runs/b --evaluate --data synth --max-frames 600 --out curves
-#[derive(Debug, Parser)]
-pub struct CurvesArgs {
+/// What `qean curves` draws.
+#[derive(Debug, Clone)]
+pub struct CurvesRequest {
     /// Run directories, or directories of runs (e.g. a sweep's S-runs/).
-    #[arg(required = true)]
     pub runs: Vec<PathBuf>,
     /// Output directory: curves.png, curves.csv, table.md.
-    #[arg(long)]
     pub out: PathBuf,
-    /// First evaluate every checkpoint without a report (checkpoint mode with --baselines).
-    #[arg(long, requires = "data")]
-    pub evaluate: bool,
-    /// The dataset the runs were trained on (with --evaluate).
-    #[arg(long)]
-    pub data: Option<PathBuf>,
-    /// Generated frames per sequence when evaluating.
-    #[arg(long, default_value_t = 1200)]
-    pub max_frames: usize,
-    /// Only these steps (comma-separated; default every checkpoint).
-    #[arg(long, value_delimiter = ',')]
+    /// Only these steps (empty: every evaluated checkpoint).
     pub steps: Vec<u64>,
     /// Figure title.
-    #[arg(long, default_value = "METRICS AGAINST TRAINING STEPS")]
     pub title: String,
-    /// Read (and with --evaluate, write) the reports tagged TAG: eval/step-N-TAG/.
-    #[arg(long)]
+    /// Read the reports tagged TAG: eval/step-N-TAG/.
     pub tag: Option<String>,
-    /// With --evaluate: sampling overrides passed to checkpoint mode (e.g. "--ensemble 4").
-    #[arg(long, allow_hyphen_values = true, value_delimiter = ' ')]
-    pub eval_args: Vec<String>,
 }
 
-/// Evaluates the checkpoints of `run` that have no report yet.
-fn evaluate_missing(run: &Path, a: &CurvesArgs) -> anyhow::Result<()> {
-    let data = a.data.as_ref().context("--evaluate needs --data")?;
-    let list = qean_train::run_dir::list_checkpoints(run)?;
-    for (step, dir) in list {
-        if !a.steps.is_empty() && !a.steps.contains(&step) {
-            continue;
-        }
-        let mut name = qean_train::run_dir::checkpoint_name(step);
-        if let Some(t) = &a.tag {
-            name = format!("{name}-{t}");
-        }
-        let report = run.join("eval").join(name).join("report.json");
-        if report.is_file() {
-            let ok = std::fs::read_to_string(&report)
-                .ok()
-                .and_then(|t| serde_json::from_str::<RunReport>(&t).ok())
-                .is_some_and(|r| r.frames == a.max_frames && Point::of(&r).is_some());
-            if ok {
-                continue;
-            }
-        }
-        eprintln!("curves: evaluating {} step {step}", run.display());
-        let mut args: Vec<OsString> = vec![
-            "qean-eval".into(),
-            "--run".into(),
-            run.as_os_str().into(),
-            "--checkpoint".into(),
-            dir.as_os_str().into(),
-            "--data".into(),
-            data.as_os_str().into(),
-            "--max-frames".into(),
-            a.max_frames.to_string().into(),
-            "--metrics-mode".into(),
-            "reference".into(),
-            "--baselines".into(),
-        ];
-        if let Some(t) = &a.tag {
-            args.push("--tag".into());
-            args.push(t.into());
-        }
-        args.extend(
-            a.eval_args
-                .iter()
-                .filter(|x| !x.is_empty())
-                .map(OsString::from),
-        );
-        let eval_args =
-            crate::cli::Args::try_parse_from(args).context("internal: eval arguments")?;
-        let quiet = tracing::subscriber::NoSubscriber::default();
-        tracing::subscriber::with_default(quiet, || {
-            crate::run_eval::evaluate_run(&eval_args, run)
-        })?;
+/// The evaluation directory name of a checkpoint step (`step-N`, or `step-N-TAG`).
+pub fn eval_dir_name(step: u64, tag: Option<&str>) -> String {
+    match tag {
+        Some(t) => format!("step-{step}-{t}"),
+        None => format!("step-{step}"),
     }
-    Ok(())
 }
 
-/// Runs `qean curves`; returns the table.
-pub fn run(a: &CurvesArgs) -> anyhow::Result<String> {
+/// Whether `run` holds a usable report for `step`: `eval/<eval_dir_name>/report.json` readable, made for
+/// `max_frames` generated frames, with motion energy.
+pub fn has_report(run: &Path, step: u64, tag: Option<&str>, max_frames: usize) -> bool {
+    let report = run
+        .join("eval")
+        .join(eval_dir_name(step, tag))
+        .join("report.json");
+    std::fs::read_to_string(report)
+        .ok()
+        .and_then(|t| serde_json::from_str::<RunReport>(&t).ok())
+        .is_some_and(|r| r.frames == max_frames && Point::of(&r).is_some())
+}
+
+/// Reads the runs' reports and writes curves.png, curves.csv and table.md; returns the table.
+pub fn write_curves(a: &CurvesRequest) -> anyhow::Result<String> {
     let dirs = find_runs(&a.runs)?;
-    if a.evaluate {
-        for d in &dirs {
-            evaluate_missing(d, a)?;
-        }
-    }
     let mut runs = Vec::new();
     for d in &dirs {
         let mut r = read_run(d, a.tag.as_deref())?;

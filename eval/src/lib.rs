@@ -5,12 +5,14 @@
 //!
 //! Entry points: [`evaluate`] (loaded joint sequences + a music-beat lookup → [`MetricsReport`]),
 //! [`render_markdown`] (the paper-layout table), [`features_of`] and the per-metric modules for
-//! single numbers, and [`cli`] for the `qean-eval` binary. File reading lives in [`io`] only.
+//! single numbers, [`dirs`] for directory mode, [`run_report`] for what checkpoint mode reports (the
+//! sampling itself lives in `qean-pipeline`), [`curves`] for metrics against training steps. File reading
+//! lives in [`io`] only. No Burn: this crate knows joint positions, not models.
 
 pub mod beat_align;
-pub mod cli;
 pub mod config;
 pub mod curves;
+pub mod dirs;
 pub mod dist;
 pub mod error;
 pub mod fid;
@@ -22,7 +24,7 @@ pub mod normalise;
 pub mod positions;
 pub mod protocol;
 pub mod report;
-pub mod run_eval;
+pub mod run_report;
 pub mod synthetic;
 
 pub use config::{

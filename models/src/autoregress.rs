@@ -96,6 +96,51 @@ pub fn project_frame(frame: &mut [f32], layout: Layout) {
     }
 }
 
+/// Why sampling failed: a request the loop cannot use (named by its index), or the model's own error.
+#[derive(Debug, PartialEq)]
+pub enum SampleError<E> {
+    Request { index: usize, message: String },
+    Model(E),
+}
+
+impl<E: std::fmt::Display> std::fmt::Display for SampleError<E> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SampleError::Request { index, message } => {
+                write!(f, "sample request {index}: {message}")
+            }
+            SampleError::Model(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl<E: std::fmt::Debug + std::fmt::Display> std::error::Error for SampleError<E> {}
+
+/// Checks that every request holds a whole seed and whole audio frames.
+fn check_requests<E>(
+    requests: &[SampleRequest],
+    opts: &SampleOptions,
+) -> Result<(), SampleError<E>> {
+    let (d, ml) = (opts.layout.dim(), opts.spec.motion_len);
+    for (index, r) in requests.iter().enumerate() {
+        let message = if r.seed.len() < ml * d {
+            format!(
+                "the seed holds {} values, fewer than the model's {ml} frames × {d}",
+                r.seed.len()
+            )
+        } else if r.audio.len() % AUDIO_DIM != 0 {
+            format!(
+                "{} audio values are not whole {AUDIO_DIM}-D frames",
+                r.audio.len()
+            )
+        } else {
+            continue;
+        };
+        return Err(SampleError::Request { index, message });
+    }
+    Ok(())
+}
+
 /// Generate every request. `model(motion, audio, batch)` receives motion [batch, motion_len, D] and audio
 /// [batch, audio_len, 35] (row-major) and returns the first `opts.ensemble` output tokens of each,
 /// [batch, ensemble, D]. `progress(step, total)` is called after each model pass. Returns seed ++
@@ -105,7 +150,8 @@ pub fn autoregress<E>(
     opts: &SampleOptions,
     mut model: impl FnMut(&[f32], &[f32], usize) -> Result<Vec<f32>, E>,
     mut progress: impl FnMut(usize, usize),
-) -> Result<Vec<Vec<f32>>, E> {
+) -> Result<Vec<Vec<f32>>, SampleError<E>> {
+    check_requests(requests, opts)?;
     let d = opts.layout.dim();
     let (ml, al) = (opts.spec.motion_len, opts.spec.audio_len);
     let audio_frames: Vec<usize> = requests.iter().map(|r| r.audio.len() / AUDIO_DIM).collect();
@@ -150,7 +196,7 @@ pub fn autoregress<E>(
                 audio.extend_from_slice(&a[src * AUDIO_DIM..(src + 1) * AUDIO_DIM]);
             }
         }
-        let out = model(&motion, &audio, active.len())?;
+        let out = model(&motion, &audio, active.len()).map_err(SampleError::Model)?;
         assert_eq!(
             out.len(),
             active.len() * e * d,
@@ -430,5 +476,21 @@ mod tests {
             "{steps:?}"
         );
         assert!(eased[24..].iter().all(|&x| (x - 0.1).abs() < 1e-7));
+    }
+
+    #[test]
+    fn a_short_seed_is_an_error_naming_the_request() {
+        let opts = SampleOptions::default();
+        let d = opts.layout.dim();
+        let mut short = request(0.0, 400, d);
+        short.seed.truncate(10 * d);
+        let reqs = [request(0.0, 400, d), short];
+        let e = autoregress::<String>(&reqs, &opts, |_m, _a, b| Ok(vec![0.0; b * d]), |_, _| {})
+            .unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("sample request 1: the seed holds"),
+            "{e}"
+        );
     }
 }

@@ -3,7 +3,7 @@
 //! supplies the model pass — one forward per generated frame for the whole batch, keeping the
 //! first output token.
 
-use crate::autoregress::{autoregress, SampleOptions, SampleRequest};
+use crate::autoregress::{autoregress, SampleError, SampleOptions, SampleRequest};
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_aistpp::windows::AUDIO_DIM;
 
@@ -42,24 +42,21 @@ pub fn first_tokens<M: DanceGenerator>(
 
 /// Generates every request in one batch (exact: the model has no masks, so each sequence's
 /// frames do not depend on its batch mates). `model` must live on a plain (non-autodiff)
-/// device, so dropout is off. Returns seed ++ generated frames per request.
+/// device, so dropout is off. Returns seed ++ generated frames per request; an error names a request
+/// the loop cannot use (a seed shorter than the model's motion window).
 pub fn sample<M: DanceGenerator>(
     model: &M,
     device: &Device,
     requests: &[SampleRequest],
     opts: &SampleOptions,
     progress: impl FnMut(usize, usize),
-) -> Vec<Vec<f32>> {
-    let result: Result<_, std::convert::Infallible> = autoregress(
+) -> Result<Vec<Vec<f32>>, SampleError<std::convert::Infallible>> {
+    autoregress(
         requests,
         opts,
         |m, a, b| Ok(first_tokens(model, device, opts, m, a, b)),
         progress,
-    );
-    match result {
-        Ok(v) => v,
-        Err(never) => match never {},
-    }
+    )
 }
 
 #[cfg(test)]
@@ -110,9 +107,9 @@ mod tests {
         };
         // Different music lengths: 8 sequences, some stopping early.
         let requests: Vec<SampleRequest> = (0..8).map(|k| request(k, 14 + 2 * k)).collect();
-        let batched = sample(&model, &device, &requests, &opts, |_, _| {});
+        let batched = sample(&model, &device, &requests, &opts, |_, _| {}).unwrap();
         for (k, r) in requests.iter().enumerate() {
-            let alone = sample(&model, &device, std::slice::from_ref(r), &opts, |_, _| {});
+            let alone = sample(&model, &device, std::slice::from_ref(r), &opts, |_, _| {}).unwrap();
             assert_eq!(batched[k].len(), (6 + opts.generated_len(14 + 2 * k)) * 225);
             let diff = batched[k]
                 .iter()

@@ -376,10 +376,10 @@ fn sampling(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> any
     };
     // Warm-up: one pass (allocator and thread pools), not timed.
     if id == MeasureId::SampleTiny {
-        sample(&model, &device, &requests, &opts(1), |_, _| {});
+        sample(&model, &device, &requests, &opts(1), |_, _| {})?;
     }
     let t = Instant::now();
-    let out = sample(&model, &device, &requests, &opts(frames), |_, _| {});
+    let out = sample(&model, &device, &requests, &opts(frames), |_, _| {})?;
     let seconds = t.elapsed().as_secs_f64();
     anyhow::ensure!(
         out.len() == sizes.sequences,

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use qean_eval::cli::RootArg;
+use qean::eval_cli::RootArg;
 use qean_motion::Motion;
 use qean_synth as synth;
 

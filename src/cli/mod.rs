@@ -39,8 +39,8 @@ pub enum Command {
     Export(train_cmds::ExportArgs),
     Sample(sample_cmd::SampleArgs),
     /// AIST++ metrics (FID_k, FID_g, Dist_k, Dist_g, BeatAlign); the same as the `qean-eval` binary.
-    Eval(qean_eval::cli::Args),
-    Curves(qean_eval::curves::CurvesArgs),
+    Eval(qean::eval_cli::Args),
+    Curves(qean::eval_cli::CurvesArgs),
     Demo(demo_cmd::DemoArgs),
     Bench(bench_cmd::BenchArgs),
 }
@@ -100,12 +100,11 @@ fn run_data(command: Command) -> anyhow::Result<()> {
         Command::Render(a) => data_cmds::render(a),
         Command::Convert(a) => data_cmds::convert(a),
         Command::Eval(a) => {
-            let (_, table) = qean_eval::cli::run(&a)?;
-            print!("{table}");
+            print!("{}", qean::eval_cli::run_eval(&a)?);
             Ok(())
         }
         Command::Curves(a) => {
-            print!("{}", qean_eval::curves::run(&a)?);
+            print!("{}", qean::eval_cli::run_curves(&a)?);
             println!("figure: {}", a.out.join("curves.png").display());
             Ok(())
         }

@@ -6,8 +6,8 @@ use anyhow::bail;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use qean_models::autoregress::AudioPad;
+use qean_pipeline::generate::{self, GenerateOptions, SeedSource};
 use qean_train::checkpoint;
-use qean_train::generate::{self, GenerateOptions, SeedSource};
 
 /// Generate a dance for a song with a trained model (SPEC §6: one model pass per frame, sliding the motion and
 /// music windows; each new frame is the first output token (mint) or the mean of what the last N passes
@@ -141,7 +141,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         for p in g.paths.all() {
             println!("  {}", p.display());
         }
-        let frames = qean_eval::run_eval::frames_of(g.joints.clone());
+        let frames = qean_eval::run_report::frames_of(g.joints.clone());
         let generated = &frames[seed_frames.min(frames.len())..];
         match &reference {
             Some(r) if generated.len() >= 3 => {
@@ -195,7 +195,7 @@ fn energy_reference(
     ck: &checkpoint::Checkpoint,
 ) -> Option<qean_eval::EnergyReference> {
     let data = ck.config.data.dir.as_ref().filter(|d| d.is_dir())?;
-    match qean_eval::run_eval::cached_energy_reference(data, &run.join("energy_reference.json")) {
+    match qean_eval::run_report::cached_energy_reference(data, &run.join("energy_reference.json")) {
         Ok(r) => Some(r),
         Err(e) => {
             tracing::warn!("no reference motion energy from {}: {e:#}", data.display());

@@ -268,26 +268,18 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
 /// baselines, on the run's dataset): the `reference`-mode numbers, comparable with published
 /// tables, and the motion energy (speed and acceleration ratios, frozen share).
 fn evaluate_checkpoint(run_dir: &Path, frames: usize) -> anyhow::Result<Vec<(String, f64)>> {
-    use clap::Parser;
     let config = RunConfig::load(&run_dir.join("config.toml"), &[]).map_err(|e| anyhow!("{e}"))?;
     let data = config
         .data
         .dir
         .ok_or_else(|| anyhow!("{}: no data.dir", run_dir.display()))?;
-    let frames = frames.to_string();
-    let args = qean_eval::cli::Args::try_parse_from([
-        "qean-eval".as_ref(),
-        "--run".as_ref(),
-        run_dir.as_os_str(),
-        "--data".as_ref(),
-        data.as_os_str(),
-        "--metrics-mode".as_ref(),
-        "reference".as_ref(),
-        "--max-frames".as_ref(),
-        frames.as_ref(),
-        "--baselines".as_ref(),
-    ] as [&std::ffi::OsStr; 10])?;
-    let (_, _, report) = qean_eval::run_eval::evaluate_run_full(&args, run_dir)?;
+    let mut req = qean_pipeline::evaluate::RunEvalRequest {
+        max_frames: frames,
+        baselines: true,
+        ..qean_pipeline::evaluate::RunEvalRequest::new(run_dir, data)
+    };
+    req.configs.truncate(1); // the `reference` mode only
+    let report = qean_pipeline::evaluate::evaluate_run(&req)?.report;
     let r = report
         .reports
         .first()
@@ -411,7 +403,7 @@ pub fn inspect_run(dir: &Path) -> anyhow::Result<()> {
                     .val_loss
                     .map(|v| format!("{v:.4e}"))
                     .unwrap_or_else(|| "-".into()),
-                &c.state.params_hash[..16]
+                short_hash(&c.state.params_hash)
             ),
             Err(e) => println!("  {}  unreadable: {e}", path.display()),
         }
@@ -432,4 +424,24 @@ pub fn inspect_run(dir: &Path) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The first 16 characters of a parameter hash as `qean inspect` shows it (whole when shorter: the
+/// hash is read from a file a user may have edited).
+fn short_hash(hash: &str) -> String {
+    hash.chars().take(16).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn short_hash_takes_sixteen_characters_of_any_hash() {
+        assert_eq!(
+            super::short_hash("0123456789abcdef0123"),
+            "0123456789abcdef"
+        );
+        assert_eq!(super::short_hash("abc"), "abc");
+        assert_eq!(super::short_hash("ééééééééééééééééé"), "éééééééééééééééé");
+        assert_eq!(super::short_hash(""), "");
+    }
 }

@@ -211,7 +211,7 @@ Layouts (Burn's, not PyTorch's):\n\n\
   transpose it.\n\
 - The fused attention projection `qkv.weight` is `[hidden, 3·hidden]`: columns `0..h` give q, `h..2h` k,\n\
   `2h..3h` v; within each, head `j` owns columns `j·d_head..(j+1)·d_head`.\n\
-- Layer norms have `gamma` (scale) and `beta` (shift), ε = 1e-6 as mint.\n\
+- Layer norms have `gamma` (scale) and `beta` (shift), ε = 1e-5 as mint (PyTorch's default).\n\
 - Position embeddings are `[tokens, hidden]`.\n\
 - Rows with `{i}` stand for one tensor per layer, `i` over the range given.\n\n\
 This file is generated from the presets (`QEAN_BLESS=1 cargo test --workspace --test weights_doc`\n\

@@ -5,7 +5,6 @@
 pub mod checkpoint;
 pub mod data;
 pub mod export;
-pub mod generate;
 pub mod logging;
 pub mod metrics_log;
 pub mod plot;

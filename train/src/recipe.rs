@@ -369,7 +369,7 @@ mod tests {
             ..Default::default()
         };
         let net = model.valid();
-        let gen = qean_models::sampler::sample(&net, &device, &[req], &opts, |_, _| {});
+        let gen = qean_models::sampler::sample(&net, &device, &[req], &opts, |_, _| {}).unwrap();
         let sampled = &gen[0][spec.motion_len * dim..];
         let rolled = &out.motion[3 * dim..6 * dim];
         for (a, b) in sampled.iter().zip(rolled) {

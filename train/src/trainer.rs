@@ -431,7 +431,7 @@ impl Session {
             )));
         }
         let state = self.state(qean_models::params::params_hash(&params));
-        let config_text = self.config.to_toml();
+        let config_text = self.config.to_toml().map_err(Error::msg)?;
         qean_io::fsutil::atomic_dir(&dir, |tmp| {
             self.model
                 .save_weights(&tmp.join(checkpoint::MODEL_FILE))
@@ -644,7 +644,8 @@ fn train_locked(mut config: RunConfig, opts: &TrainOptions) -> Result<TrainOutco
     };
 
     // The resolved config, for people and for `--resume R`.
-    qean_io::fsutil::atomic_write(&run_dir.join("config.toml"), config.to_toml().as_bytes())?;
+    let config_text = config.to_toml().map_err(Error::msg)?;
+    qean_io::fsutil::atomic_write(&run_dir.join("config.toml"), config_text.as_bytes())?;
     let metrics = MetricsLog::open(&run_dir.join("metrics.csv"), step)?;
     tracing::info!(
         "{} run {} at step {step}/{total}: {} ({} train sequences, {} val, backend {})",

@@ -1,26 +1,23 @@
-//! The `qean-eval` command line: parse, load, evaluate, print. All logic is reachable from tests.
+//! `qean eval` and `qean curves` (also the `qean-eval` binary): their arguments, turned into the typed
+//! requests of `qean-eval` (directory mode) and `qean-pipeline` (checkpoint mode, curves).
 
-use std::collections::HashMap;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use clap::Parser;
-
-use serde::{Deserialize, Serialize};
-
-use crate::config::{
-    value_name, BaSegment, BaVariant, EvalConfig, GeometricVariant, MetricsMode, MusicBeatSource,
-    PositionMode,
+use qean_eval::config::{
+    BaSegment, BaVariant, EvalConfig, GeometricVariant, MetricsMode, MusicBeatSource, PositionMode,
 };
-use crate::io::{load_joints_dir, read_beats_json, write_json_atomic};
-use crate::protocol::evaluate;
-use crate::report::{render_markdown, MetricsReport};
+use qean_eval::curves::CurvesRequest;
+use qean_eval::dirs::{evaluate_dirs, DirRequest};
+use qean_eval::run_report::Protocol;
+use qean_models::autoregress::AudioPad;
+use qean_pipeline::evaluate::{evaluate_run, RunEvalRequest, SamplingOverrides};
 
 /// Evaluate generated dance motion against AIST++ ground truth: FID_k, FID_g, Dist_k, Dist_g and
 /// BeatAlign, computed as Bailando's and mint's reference code computes them (bugs included by
 /// default; see --metrics-mode).
 #[derive(Debug, Parser)]
-#[command(name = "qean-eval", version)]
 pub struct Args {
     /// Directory of generated motions, seed frames first: joint positions as .npy (T, 24, 3) or (T, 72), model
     /// vectors .npy (T, 225|219), AIST++ .pkl (forward kinematics applied) or .bvh.
@@ -41,8 +38,8 @@ pub struct Args {
     #[arg(long, requires = "run")]
     pub data: Option<PathBuf>,
     /// Checkpoint mode: paired (each motion with its own music) or unpaired (mint: 10 music draws per motion).
-    #[arg(long, value_enum, default_value_t = crate::run_eval::Protocol::Paired)]
-    pub protocol: crate::run_eval::Protocol,
+    #[arg(long, value_enum, default_value_t = Protocol::Paired)]
+    pub protocol: Protocol,
     /// Checkpoint mode: keep generating past the end of the music by repeating its last frame.
     #[arg(long)]
     pub audio_pad_edge: bool,
@@ -163,113 +160,141 @@ impl Args {
             })
             .collect()
     }
-}
 
-/// What `--json` writes: one report per metrics mode.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct EvaluationFile {
-    pub reports: Vec<MetricsReport>,
-}
-
-/// Load, evaluate each mode, write the JSON (if asked) and return the reports with their markdown table.
-pub fn run(args: &Args) -> anyhow::Result<(EvaluationFile, String)> {
-    if let Some(run) = &args.run {
-        return crate::run_eval::evaluate_run(args, run);
-    }
-    let root = args.fk_root.fk();
-    let (Some(generated), Some(reference)) = (&args.generated, &args.reference) else {
-        bail!("give --generated DIR and --reference DIR, or --run R --data DIR");
-    };
-    let generated = load_joints_dir(generated, root).context("loading generated motions")?;
-    let reference = load_joints_dir(reference, root).context("loading reference motions")?;
-    let beats: Option<(PathBuf, HashMap<String, Vec<usize>>)> = match (&args.beats, &args.music) {
-        (Some(p), _) => Some((p.clone(), read_beats_json(p)?)),
-        (None, Some(dir)) => {
-            let names = generated.iter().chain(&reference).map(|s| s.name.as_str());
-            Some((dir.clone(), music_beats(dir, names, args.ba_music_beats)?))
-        }
-        (None, None) => None,
-    };
-    let lookup = |id: &str| -> crate::Result<Vec<usize>> {
-        let (path, map) = beats.as_ref().expect("lookup only passed with beats");
-        map.get(id)
-            .cloned()
-            .ok_or_else(|| crate::Error::file(path, format!("no beats for music ID '{id}'")))
-    };
-    let lookup_ref = beats
-        .as_ref()
-        .map(|_| &lookup as crate::protocol::BeatLookup);
-    let reports = args
-        .configs()
-        .iter()
-        .map(|cfg| evaluate(&generated, &reference, lookup_ref, cfg))
-        .collect::<crate::Result<Vec<_>>>()?;
-    let file = EvaluationFile { reports };
-    if let Some(path) = &args.json {
-        write_json_atomic(path, &file)?;
-    }
-    let labels: Vec<String> = file
-        .reports
-        .iter()
-        .map(|r| match file.reports.len() {
-            1 => args.label.clone(),
-            _ => format!("{} ({})", args.label, value_name(r.config.metrics_mode)),
+    /// Checkpoint mode's request for `run` (the flags that only directory mode reads are ignored).
+    pub fn run_request(&self, run: &std::path::Path) -> anyhow::Result<RunEvalRequest> {
+        let data = self
+            .data
+            .clone()
+            .context("--run needs --data DIR (the AIST++-layout dataset)")?;
+        Ok(RunEvalRequest {
+            run: run.to_path_buf(),
+            checkpoint: self.checkpoint.clone(),
+            data,
+            protocol: self.protocol,
+            max_frames: self.max_frames,
+            sampling: SamplingOverrides {
+                feedback_project: (self.feedback_project || self.raw_feedback)
+                    .then_some(self.feedback_project),
+                ensemble: self.ensemble,
+                ensemble_decay: self.ensemble_decay,
+                seam_frames: self.seam_frames,
+                backend: self.backend.clone(),
+                audio_pad: if self.audio_pad_edge {
+                    AudioPad::Edge
+                } else {
+                    AudioPad::Stop
+                },
+            },
+            configs: self.configs(),
+            ba_music_beats: self.ba_music_beats,
+            root: self.fk_root.fk(),
+            tag: self.tag.clone(),
+            baselines: self.baselines,
+            json: self.json.clone(),
         })
-        .collect();
-    let rows: Vec<(&str, &MetricsReport)> = labels
-        .iter()
-        .map(String::as_str)
-        .zip(&file.reports)
-        .collect();
-    let table = render_markdown(&rows);
-    Ok((file, table))
+    }
+
+    /// Directory mode's request.
+    pub fn dir_request(&self) -> anyhow::Result<DirRequest> {
+        let (Some(generated), Some(reference)) = (&self.generated, &self.reference) else {
+            bail!("give --generated DIR and --reference DIR, or --run R --data DIR");
+        };
+        Ok(DirRequest {
+            generated: generated.clone(),
+            reference: reference.clone(),
+            music: self.music.clone(),
+            beats: self.beats.clone(),
+            ba_music_beats: self.ba_music_beats,
+            configs: self.configs(),
+            json: self.json.clone(),
+            label: self.label.clone(),
+            root: self.fk_root.fk(),
+        })
+    }
 }
 
-/// Music beats of every AIST++ music ID among `names`, from `dir/<music ID>.(wav|ogg|mp3|flac)`:
-/// Bailando's HPSS-percussive beats (start BPM 120), or column 34 of our 35-D features (start BPM from the
-/// music ID's tempo prior). IDs without an audio file are left out (their sequences are then excluded from
-/// BeatAlign with a logged reason).
-pub fn music_beats<'a>(
-    dir: &std::path::Path,
-    names: impl Iterator<Item = &'a str>,
-    source: MusicBeatSource,
-) -> anyhow::Result<HashMap<String, Vec<usize>>> {
-    use qean_audio as audio;
-    if !dir.is_dir() {
-        bail!("{}: music directory does not exist", dir.display());
+/// Runs `qean eval`; returns the markdown table to print.
+pub fn run_eval(args: &Args) -> anyhow::Result<String> {
+    match &args.run {
+        Some(run) => Ok(evaluate_run(&args.run_request(run)?)?.table),
+        None => Ok(evaluate_dirs(&args.dir_request()?)?.1),
     }
-    let mut ids: Vec<String> = names.filter_map(qean_aistpp::names::music_id_of).collect();
-    ids.sort();
-    ids.dedup();
-    let mut out = HashMap::new();
-    for id in ids {
-        let Some(path) = qean_aistpp::dataset::AUDIO_EXTENSIONS
+}
+
+/// Plot metrics against training steps for runs grouped over seeds (`-seed<k>` in the name).
+///
+/// Examples:
+///   qean curves sweeps/freezing-runs --out docs/freezing/steps
+///   qean curves runs/a runs/b --evaluate --data synth --max-frames 600 --out curves
+#[derive(Debug, Parser)]
+pub struct CurvesArgs {
+    /// Run directories, or directories of runs (e.g. a sweep's S-runs/).
+    #[arg(required = true)]
+    pub runs: Vec<PathBuf>,
+    /// Output directory: curves.png, curves.csv, table.md.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// First evaluate every checkpoint without a report (checkpoint mode with --baselines).
+    #[arg(long, requires = "data")]
+    pub evaluate: bool,
+    /// The dataset the runs were trained on (with --evaluate).
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// Generated frames per sequence when evaluating.
+    #[arg(long, default_value_t = 1200)]
+    pub max_frames: usize,
+    /// Only these steps (comma-separated; default every checkpoint).
+    #[arg(long, value_delimiter = ',')]
+    pub steps: Vec<u64>,
+    /// Figure title.
+    #[arg(long, default_value = "METRICS AGAINST TRAINING STEPS")]
+    pub title: String,
+    /// Read (and with --evaluate, write) the reports tagged TAG: eval/step-N-TAG/.
+    #[arg(long)]
+    pub tag: Option<String>,
+    /// With --evaluate: sampling overrides passed to checkpoint mode (e.g. "--ensemble 4").
+    #[arg(long, allow_hyphen_values = true, value_delimiter = ' ')]
+    pub eval_args: Vec<String>,
+}
+
+/// Runs `qean curves`; returns the table.
+pub fn run_curves(a: &CurvesArgs) -> anyhow::Result<String> {
+    if a.evaluate {
+        let data = a.data.as_ref().context("--evaluate needs --data")?;
+        // The sampling overrides of --eval-args, read as `qean eval --run` flags.
+        let fixed = [
+            "qean eval",
+            "--metrics-mode",
+            "reference",
+            "--run",
+            "R",
+            "--data",
+        ];
+        let argv = fixed
             .iter()
-            .map(|e| dir.join(format!("{id}.{e}")))
-            .find(|p| p.is_file())
-        else {
-            tracing::warn!("no audio for music {id} in {}", dir.display());
-            continue;
-        };
-        let beats = match source {
-            MusicBeatSource::Bailando => {
-                let a = audio::load_audio(&path, &audio::LoadOptions::default())?;
-                audio::hpss::bailando_beats(&a.samples, audio::SR as f64).beats
-            }
-            MusicBeatSource::Feature35 => {
-                audio::features_for_file(
-                    &path,
-                    &audio::FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(&id)),
-                )?
-                .beats
-            }
-        };
-        out.insert(id, beats);
+            .map(std::ffi::OsString::from)
+            .chain([data.as_os_str().to_owned()])
+            .chain(a.eval_args.iter().filter(|x| !x.is_empty()).map(Into::into));
+        let eval = Args::try_parse_from(argv).context("--eval-args")?;
+        let mut template = eval.run_request(std::path::Path::new("R"))?;
+        template.max_frames = a.max_frames;
+        template.tag = a.tag.clone();
+        template.baselines = true;
+        for d in qean_eval::curves::find_runs(&a.runs)? {
+            qean_pipeline::curves::evaluate_missing(&d, &a.steps, &template)?;
+        }
     }
-    Ok(out)
+    qean_eval::curves::write_curves(&CurvesRequest {
+        runs: a.runs.clone(),
+        out: a.out.clone(),
+        steps: a.steps.clone(),
+        title: a.title.clone(),
+        tag: a.tag.clone(),
+    })
 }
 
-/// Logging to stderr; RUST_LOG overrides the -v level.
+/// Logging to stderr for the `qean-eval` binary; RUST_LOG overrides the -v level.
 pub fn init_logging(verbose: u8) {
     let level = match verbose {
         0 => "warn",

@@ -1,13 +1,20 @@
 //! The `qean-eval` command line through its library entry point: .npy loading, beats JSON, the JSON
 //! report, and the clear errors for inputs this build does not read yet.
 
+#[path = "../eval/tests/common/mod.rs"]
 mod common;
 
 use std::path::Path;
 
 use clap::Parser;
 use common::{aist_name, synthetic_motion};
-use qean_eval::cli::{run, Args, EvaluationFile};
+use qean::eval_cli::Args;
+use qean_eval::dirs::EvaluationFile;
+
+/// Directory mode as `qean eval --generated A --reference B` runs it.
+fn run(args: &Args) -> anyhow::Result<(EvaluationFile, String)> {
+    qean_eval::dirs::evaluate_dirs(&args.dir_request()?)
+}
 use qean_eval::{Frame, MetricsMode, MetricsReport};
 
 fn write_npy(path: &Path, joints: &[Frame], f32_dtype: bool, flat: bool) {

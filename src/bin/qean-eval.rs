@@ -1,4 +1,4 @@
-//! `qean-eval`: the metrics binary; all logic lives in `qean_eval::cli`.
+//! `qean-eval`: the metrics alone, the same as `qean eval`; all logic lives in `qean::eval_cli`.
 
 use clap::Parser;
 
@@ -10,7 +10,7 @@ use clap::Parser;
 )]
 struct Cli {
     #[command(flatten)]
-    args: qean_eval::cli::Args,
+    args: qean::eval_cli::Args,
     /// More logging (-v info, -vv debug).
     #[arg(short, long, action = clap::ArgAction::Count)]
     verbose: u8,
@@ -19,9 +19,9 @@ struct Cli {
 fn main() {
     qean_models::backend::prefer_cpu_default_device();
     let cli = Cli::parse();
-    qean_eval::cli::init_logging(cli.verbose);
-    match qean_eval::cli::run(&cli.args) {
-        Ok((_, table)) => print!("{table}"),
+    qean::eval_cli::init_logging(cli.verbose);
+    match qean::eval_cli::run_eval(&cli.args) {
+        Ok(table) => print!("{table}"),
         Err(e) => {
             eprintln!("error: {e:#}");
             std::process::exit(1);

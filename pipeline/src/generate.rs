@@ -13,7 +13,7 @@ use qean_motion::fk::FkRoot;
 use qean_motion::motion::Motion;
 use qean_render::export::{export_dance, ExportOptions, ExportPaths};
 
-use crate::checkpoint::Checkpoint;
+use qean_train::checkpoint::Checkpoint;
 
 /// Where the seed motion comes from.
 #[derive(Debug, Clone, PartialEq)]
@@ -180,7 +180,8 @@ pub fn generate(
         }
         debug_assert_eq!(s.features.data.len(), s.features.frames * AUDIO_DIM);
     }
-    let dances = qean_models::sampler::sample(&model, &device, &requests, &sample_opts, progress);
+    let dances = qean_models::sampler::sample(&model, &device, &requests, &sample_opts, progress)
+        .map_err(|e| Error::msg(e.to_string()))?;
     let seed_frames = ck.config.model.motion_len;
     let d = sample_opts.layout.dim();
     let mut written = Vec::new();

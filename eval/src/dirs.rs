@@ -1,0 +1,135 @@
+//! Directory mode of the metrics: a directory of generated motions against a directory of
+//! ground-truth motions, with music beats from audio files or a JSON file (`qean eval --generated
+//! DIR --reference DIR`).
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context};
+use serde::{Deserialize, Serialize};
+
+use crate::config::{value_name, EvalConfig, MusicBeatSource};
+use crate::io::{load_joints_dir, read_beats_json, write_json_atomic};
+use crate::protocol::evaluate;
+use crate::report::{render_markdown, MetricsReport};
+
+/// What to evaluate in directory mode.
+#[derive(Debug, Clone)]
+pub struct DirRequest {
+    /// Generated motions, seed frames first (any format `io::read_joints` reads).
+    pub generated: PathBuf,
+    /// Ground-truth motions: the normalisation and FID reference set.
+    pub reference: PathBuf,
+    /// Music directory (`<music ID>.wav|ogg|mp3|flac`), beats tracked as `ba_music_beats` says.
+    pub music: Option<PathBuf>,
+    /// Precomputed beats, `{"mBR0": [frame, ...]}` at 60 FPS (wins over `music`).
+    pub beats: Option<PathBuf>,
+    pub ba_music_beats: MusicBeatSource,
+    /// One report per configuration (one per metrics mode).
+    pub configs: Vec<EvalConfig>,
+    /// Also write the reports here as JSON.
+    pub json: Option<PathBuf>,
+    /// Row label of the markdown table.
+    pub label: String,
+    /// Root convention of forward kinematics for .pkl motions.
+    pub root: qean_motion::FkRoot,
+}
+
+/// What `--json` writes: one report per metrics mode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EvaluationFile {
+    pub reports: Vec<MetricsReport>,
+}
+
+/// Load, evaluate each configuration, write the JSON (if asked) and return the reports with their
+/// markdown table.
+pub fn evaluate_dirs(req: &DirRequest) -> anyhow::Result<(EvaluationFile, String)> {
+    let root = req.root;
+    let generated = load_joints_dir(&req.generated, root).context("loading generated motions")?;
+    let reference = load_joints_dir(&req.reference, root).context("loading reference motions")?;
+    let beats: Option<(PathBuf, HashMap<String, Vec<usize>>)> = match (&req.beats, &req.music) {
+        (Some(p), _) => Some((p.clone(), read_beats_json(p)?)),
+        (None, Some(dir)) => {
+            let names = generated.iter().chain(&reference).map(|s| s.name.as_str());
+            Some((dir.clone(), music_beats(dir, names, req.ba_music_beats)?))
+        }
+        (None, None) => None,
+    };
+    let lookup = |id: &str| -> crate::Result<Vec<usize>> {
+        let (path, map) = beats.as_ref().expect("lookup only passed with beats");
+        map.get(id)
+            .cloned()
+            .ok_or_else(|| crate::Error::file(path, format!("no beats for music ID '{id}'")))
+    };
+    let lookup_ref = beats
+        .as_ref()
+        .map(|_| &lookup as crate::protocol::BeatLookup);
+    let reports = req
+        .configs
+        .iter()
+        .map(|cfg| evaluate(&generated, &reference, lookup_ref, cfg))
+        .collect::<crate::Result<Vec<_>>>()?;
+    let file = EvaluationFile { reports };
+    if let Some(path) = &req.json {
+        write_json_atomic(path, &file)?;
+    }
+    let labels: Vec<String> = file
+        .reports
+        .iter()
+        .map(|r| match file.reports.len() {
+            1 => req.label.clone(),
+            _ => format!("{} ({})", req.label, value_name(r.config.metrics_mode)),
+        })
+        .collect();
+    let rows: Vec<(&str, &MetricsReport)> = labels
+        .iter()
+        .map(String::as_str)
+        .zip(&file.reports)
+        .collect();
+    let table = render_markdown(&rows);
+    Ok((file, table))
+}
+
+/// Music beats of every AIST++ music ID among `names`, from `dir/<music ID>.(wav|ogg|mp3|flac)`:
+/// Bailando's HPSS-percussive beats (start BPM 120), or column 34 of our 35-D features (start BPM from the
+/// music ID's tempo prior). IDs without an audio file are left out (their sequences are then excluded from
+/// BeatAlign with a logged reason).
+pub fn music_beats<'a>(
+    dir: &Path,
+    names: impl Iterator<Item = &'a str>,
+    source: MusicBeatSource,
+) -> anyhow::Result<HashMap<String, Vec<usize>>> {
+    use qean_audio as audio;
+    if !dir.is_dir() {
+        bail!("{}: music directory does not exist", dir.display());
+    }
+    let mut ids: Vec<String> = names.filter_map(qean_aistpp::names::music_id_of).collect();
+    ids.sort();
+    ids.dedup();
+    let mut out = HashMap::new();
+    for id in ids {
+        let Some(path) = qean_aistpp::dataset::AUDIO_EXTENSIONS
+            .iter()
+            .map(|e| dir.join(format!("{id}.{e}")))
+            .find(|p| p.is_file())
+        else {
+            tracing::warn!("no audio for music {id} in {}", dir.display());
+            continue;
+        };
+        let beats = match source {
+            MusicBeatSource::Bailando => {
+                let a = audio::load_audio(&path, &audio::LoadOptions::default())?;
+                audio::hpss::bailando_beats(&a.samples, audio::SR as f64).beats
+            }
+            MusicBeatSource::Feature35 => {
+                audio::features_for_file(
+                    &path,
+                    &audio::FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(&id)),
+                )?
+                .beats
+            }
+        };
+        out.insert(id, beats);
+    }
+    Ok(out)
+}

@@ -1,0 +1,367 @@
+//! Checkpoint mode of the metrics (`qean eval --run R --data DIR`, SPEC §1.6): sample the test + val
+//! sequences with a trained checkpoint (seed = the first ground-truth frames, `max_frames` generated,
+//! batched), then every metric against the ground-truth reference set (all non-ignored sequences, full
+//! length), written to `R/eval/step-N/report.{json,md}` with the generated joints beside them.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context};
+use indicatif::{ProgressBar, ProgressStyle};
+use qean_aistpp::dataset::{Dataset, Split};
+use qean_aistpp::feature_cache;
+use qean_eval::config::{value_name, EvalConfig, MetricsMode, MusicBeatSource};
+use qean_eval::dirs::{music_beats, EvaluationFile};
+use qean_eval::io::write_json_atomic;
+use qean_eval::positions::Sequence;
+use qean_eval::protocol::evaluate;
+use qean_eval::report::{render_markdown, MetricsReport};
+use qean_eval::run_report::{
+    average_beat_align, frames_of, frozen_dances, pairings, repaired_dances, Baselines, Pairing,
+    Protocol, RunReport,
+};
+use qean_models::autoregress::{AudioPad, SampleOptions, SampleRequest};
+use qean_motion::motion::Motion;
+
+/// Sampling settings of checkpoint mode; `None` takes the run's recipe.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SamplingOverrides {
+    /// Project fed-back rotations to SO(3) (`Some(false)`: raw, as mint).
+    pub feedback_project: Option<bool>,
+    /// Temporal ensembling: passes averaged per frame.
+    pub ensemble: Option<usize>,
+    /// The ensembling weights' decay per pass.
+    pub ensemble_decay: Option<f64>,
+    /// Frames over which the jump at the seed's end fades out.
+    pub seam_frames: Option<usize>,
+    /// Backend for sampling (default: the run's).
+    pub backend: Option<String>,
+    /// Keep generating past the end of the music by repeating its last frame.
+    pub audio_pad: AudioPad,
+}
+
+/// What checkpoint mode evaluates.
+#[derive(Debug, Clone)]
+pub struct RunEvalRequest {
+    /// The training run directory.
+    pub run: PathBuf,
+    /// Which checkpoint of the run (step-N, N or a path; `None`: the newest).
+    pub checkpoint: Option<String>,
+    /// The AIST++-layout dataset (motions/, wav/, splits).
+    pub data: PathBuf,
+    pub protocol: Protocol,
+    /// Generated frames per sequence.
+    pub max_frames: usize,
+    pub sampling: SamplingOverrides,
+    /// The metrics' configurations (one report each; `seed_frames`, `max_frames` and `music_offset` are
+    /// set here).
+    pub configs: Vec<EvalConfig>,
+    pub ba_music_beats: MusicBeatSource,
+    /// Root convention of forward kinematics for the generated joints.
+    pub root: qean_motion::FkRoot,
+    /// Write under `R/eval/step-N-TAG/` instead of `R/eval/step-N/`.
+    pub tag: Option<String>,
+    /// Also score the chance baselines (frozen seed pose, random music pairing).
+    pub baselines: bool,
+    /// Also write the reports here as JSON.
+    pub json: Option<PathBuf>,
+}
+
+impl RunEvalRequest {
+    /// The request with the defaults of `qean eval --run`: paired protocol, 1200 frames, the run's
+    /// sampling recipe, both metrics modes, Bailando's music beats, SMPL root, no baselines.
+    pub fn new(run: impl Into<PathBuf>, data: impl Into<PathBuf>) -> Self {
+        RunEvalRequest {
+            run: run.into(),
+            checkpoint: None,
+            data: data.into(),
+            protocol: Protocol::Paired,
+            max_frames: 1200,
+            sampling: SamplingOverrides::default(),
+            configs: [MetricsMode::Reference, MetricsMode::Corrected]
+                .into_iter()
+                .map(|metrics_mode| EvalConfig {
+                    metrics_mode,
+                    ..EvalConfig::default()
+                })
+                .collect(),
+            ba_music_beats: MusicBeatSource::Bailando,
+            root: qean_motion::FkRoot::Smpl,
+            tag: None,
+            baselines: false,
+            json: None,
+        }
+    }
+}
+
+/// What checkpoint mode returns: the reports, the markdown table (with the report's path) and the
+/// whole `report.json` (baselines included), written to `dir`.
+#[derive(Debug, Clone)]
+pub struct RunEvaluation {
+    pub file: EvaluationFile,
+    pub table: String,
+    pub report: RunReport,
+    /// `R/eval/step-N[-TAG]/`.
+    pub dir: PathBuf,
+}
+
+/// Runs checkpoint mode.
+pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
+    let run: &Path = &req.run;
+    let data = &req.data;
+    let ck = qean_train::checkpoint::resolve_in_run(run, req.checkpoint.as_deref())?;
+    let ds = Dataset::open(data)?;
+    let mut names = ds.split(Split::Test);
+    names.extend(ds.split(Split::Val));
+    names.retain(|n| {
+        ds.motion_path(n).is_file() || {
+            tracing::warn!(
+                "{}: missing, left out of the evaluation",
+                ds.motion_path(n).display()
+            );
+            false
+        }
+    });
+    if names.len() < 2 {
+        bail!(
+            "{}: the test and val splits hold {} motion(s); the metrics need at least 2",
+            data.display(),
+            names.len()
+        );
+    }
+    qean_train::data::ensure_features(&ds, &names)?;
+    let config = &ck.config;
+    let layout = config.layout();
+    let seed_frames = config.model.motion_len;
+    let root = req.root;
+
+    let pairs = pairings(&names, req.protocol);
+    let mut requests = Vec::new();
+    for (motion, music, _) in &pairs {
+        let path = ds.motion_path(motion);
+        let m = Motion::read_pkl(&path)?;
+        if m.frames < seed_frames {
+            bail!(
+                "{}: {} frames, shorter than the {seed_frames}-frame seed",
+                path.display(),
+                m.frames
+            );
+        }
+        let (audio, _) = feature_cache::load(&ds, music)?;
+        let audio = config
+            .recipe
+            .model_audio(audio, qean_aistpp::windows::AUDIO_DIM);
+        requests.push(SampleRequest {
+            seed: m.slice(0, seed_frames).to_layout(layout),
+            audio,
+        });
+    }
+    let opts = SampleOptions {
+        frames: req.max_frames,
+        audio_pad: req.sampling.audio_pad,
+        feedback_project: req
+            .sampling
+            .feedback_project
+            .unwrap_or(config.recipe.feedback_project),
+        offset_output: config.recipe.predict == qean_config::recipe::Predict::Offset,
+        ensemble: req.sampling.ensemble.unwrap_or(config.recipe.ensemble),
+        ensemble_decay: req
+            .sampling
+            .ensemble_decay
+            .unwrap_or(config.recipe.ensemble_decay),
+        seam_frames: req
+            .sampling
+            .seam_frames
+            .unwrap_or(config.recipe.seam_frames),
+        layout,
+        spec: config.window_spec(),
+    };
+    qean_config::recipe::check_ensemble(
+        ("--ensemble", opts.ensemble),
+        ("--ensemble-decay", opts.ensemble_decay),
+        config.model.target_len,
+    )
+    .map_err(anyhow::Error::msg)?;
+    let backend = req
+        .sampling
+        .backend
+        .clone()
+        .unwrap_or_else(|| config.train.backend.clone());
+    let device = qean_models::backend::device(&backend).map_err(anyhow::Error::msg)?;
+    let model = ck.load_model(&device)?;
+    let pb = ProgressBar::new(req.max_frames as u64);
+    pb.set_style(
+        ProgressStyle::with_template(&format!(
+            "sampling {} sequences {{bar:30}} {{pos}}/{{len}} frames {{per_sec}} [eta {{eta}}]",
+            requests.len()
+        ))
+        .expect("valid template"),
+    );
+    let dances = qean_models::sampler::sample(&model, &device, &requests, &opts, |done, total| {
+        pb.set_length(total as u64);
+        pb.set_position(done as u64);
+    })?;
+    pb.finish_and_clear();
+
+    let mut dir_name = qean_train::run_dir::checkpoint_name(ck.state.step);
+    if let Some(tag) = &req.tag {
+        if tag.is_empty()
+            || !tag
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+        {
+            bail!("--tag {tag:?}: use letters, digits, '-', '_' or '.'");
+        }
+        dir_name = format!("{dir_name}-{tag}");
+    }
+    let out_dir = run.join("eval").join(dir_name);
+    let joints_dir = out_dir.join("generated");
+    std::fs::create_dir_all(&joints_dir)
+        .with_context(|| format!("{}: cannot create", joints_dir.display()))?;
+    let d = layout.dim();
+    let mut generated = Vec::new();
+    let mut pairings_out = Vec::new();
+    for ((motion, music, name), dance) in pairs.iter().zip(&dances) {
+        let m = Motion::from_layout(dance, layout)
+            .map_err(|e| anyhow::anyhow!("generated {name}: {e}"))?;
+        let points = m.joints(root);
+        qean_motion::joints_file::write_joints(
+            &joints_dir.join(format!("{name}.joints.npy")),
+            &points,
+        )?;
+        generated.push(Sequence {
+            name: name.clone(),
+            joints: frames_of(points),
+        });
+        pairings_out.push(Pairing {
+            name: name.clone(),
+            motion: motion.clone(),
+            music_id: music.clone(),
+            generated: dance.len() / d - seed_frames,
+        });
+    }
+    let lengths: Vec<usize> = pairings_out.iter().map(|p| p.generated).collect();
+    tracing::info!(
+        "generated {} sequences, {}..={} frames each",
+        lengths.len(),
+        lengths.iter().min().unwrap_or(&0),
+        lengths.iter().max().unwrap_or(&0)
+    );
+
+    // The GT reference set: every non-ignored motion, full length.
+    let mut reference = Vec::new();
+    for name in ds.all_sequences()? {
+        let m = Motion::read_pkl(&ds.motion_path(&name))?;
+        reference.push(Sequence {
+            name: name.clone(),
+            joints: frames_of(m.joints(root)),
+        });
+    }
+    let mut ba_names: Vec<&str> = generated.iter().map(|s| s.name.as_str()).collect();
+    ba_names.extend(names.iter().map(String::as_str));
+    let beats = music_beats(&data.join("wav"), ba_names.into_iter(), req.ba_music_beats)?;
+    let lookup = |id: &str| -> qean_eval::Result<Vec<usize>> {
+        beats.get(id).cloned().ok_or_else(|| {
+            qean_eval::Error::file(data.join("wav"), format!("no audio for music ID '{id}'"))
+        })
+    };
+    let mut reports = Vec::new();
+    for mut cfg in req.configs.clone() {
+        cfg.seed_frames = seed_frames;
+        cfg.music_offset = 0;
+        cfg.max_frames = req.max_frames;
+        reports.push(evaluate(&generated, &reference, Some(&lookup), &cfg)?);
+    }
+    let m = &config.model;
+    let label = match m.arch {
+        qean_models::config::Arch::Fact => format!("FACT step {}", ck.state.step),
+        qean_models::config::Arch::Qean => format!(
+            "QEAN ({:?} positions, {:?} attention) step {}",
+            m.position, m.attention, ck.state.step
+        )
+        .to_lowercase()
+        .replacen("qean", "QEAN", 1),
+    };
+    let labels: Vec<String> = reports
+        .iter()
+        .map(|r| match reports.len() {
+            1 => label.clone(),
+            _ => format!("{label} ({})", value_name(r.config.metrics_mode)),
+        })
+        .collect();
+    let baselines = match (req.baselines, req.configs.first().cloned()) {
+        (true, Some(mut cfg)) => {
+            cfg.seed_frames = seed_frames;
+            cfg.music_offset = 0;
+            cfg.max_frames = req.max_frames;
+            // The baselines repeat the warnings the main evaluation gave (constant reference
+            // dimensions; renamed dances have no GT partner): run them silently.
+            let quiet = || tracing::subscriber::NoSubscriber::default();
+            let frozen = tracing::subscriber::with_default(quiet(), || {
+                evaluate(
+                    &frozen_dances(&generated, seed_frames),
+                    &reference,
+                    Some(&lookup),
+                    &cfg,
+                )
+            })?;
+            let mut pairings = Vec::new();
+            for shift in 1.. {
+                let Some(g) = repaired_dances(&generated, shift) else {
+                    break;
+                };
+                pairings.push(tracing::subscriber::with_default(quiet(), || {
+                    evaluate(&g, &reference, Some(&lookup), &cfg)
+                })?);
+            }
+            let random_pairing = average_beat_align(pairings);
+            Some(Baselines {
+                frozen,
+                random_pairing,
+            })
+        }
+        _ => None,
+    };
+    let mut rows: Vec<(&str, &MetricsReport)> =
+        labels.iter().map(String::as_str).zip(&reports).collect();
+    if let Some(b) = &baselines {
+        rows.push(("chance: frozen seed pose", &b.frozen));
+        if let Some(r) = &b.random_pairing {
+            rows.push(("chance: random music pairing", r));
+        }
+    }
+    let table = render_markdown(&rows);
+    let report = RunReport {
+        checkpoint: ck.dir.clone(),
+        step: ck.state.step,
+        protocol: req.protocol,
+        frames: req.max_frames,
+        feedback_project: opts.feedback_project,
+        ensemble: opts.ensemble,
+        seam_frames: opts.seam_frames,
+        pairings: pairings_out,
+        reports: reports.clone(),
+        baselines,
+    };
+    write_json_atomic(&out_dir.join("report.json"), &report)?;
+    let md = format!(
+        "# Evaluation of {} ({:?} protocol, {} sequences, seed = first {seed_frames} GT frames, up to {} generated frames, {} feedback, {} pass(es) per frame, seed's end eased over {} frames)\n\n{table}",
+        ck.dir.display(),
+        req.protocol,
+        report.pairings.len(),
+        req.max_frames,
+        if opts.feedback_project { "projected" } else { "raw" },
+        opts.ensemble,
+        opts.seam_frames
+    );
+    qean_io::fsutil::atomic_write(&out_dir.join("report.md"), md.as_bytes())?;
+    let file = EvaluationFile { reports };
+    if let Some(path) = &req.json {
+        write_json_atomic(path, &file)?;
+    }
+    Ok(RunEvaluation {
+        file,
+        table: format!("{table}\nreport: {}\n", out_dir.join("report.md").display()),
+        report,
+        dir: out_dir,
+    })
+}

@@ -1,0 +1,8 @@
+//! qean-pipeline: the application layer that glues a trained checkpoint to what a user gets. [`generate`]
+//! turns a checkpoint and songs into dances and their exports; [`evaluate`] is checkpoint mode of the
+//! metrics (sample the test + val split, score it with `qean-eval`, write `R/eval/step-N/report.{json,md}`);
+//! [`curves`] evaluates the checkpoints a curve still lacks. Every entry point takes a typed request.
+
+pub mod curves;
+pub mod evaluate;
+pub mod generate;

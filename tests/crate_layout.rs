@@ -1,0 +1,61 @@
+//! The crates keep their concerns (docs/architecture.md): the metrics build without Burn, the config
+//! without the audio and image stacks, the audio features without Burn or images.
+
+use std::process::Command;
+
+/// The package names in `cargo tree -p <package> -e normal` (normal dependencies only).
+fn dependencies(package: &str) -> Vec<String> {
+    let cargo = std::env::var("CARGO")
+        .ok()
+        .or(option_env!("CARGO").map(String::from))
+        .unwrap_or_else(|| "cargo".into());
+    let out = Command::new(cargo)
+        .args([
+            "tree",
+            "--offline",
+            "-e",
+            "normal",
+            "--prefix",
+            "none",
+            "-p",
+            package,
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cargo runs");
+    assert!(
+        out.status.success(),
+        "cargo tree -p {package}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+        .collect()
+}
+
+fn assert_none(package: &str, forbidden: impl Fn(&str) -> bool) {
+    let deps = dependencies(package);
+    assert!(deps.len() > 1, "{package}: no dependency tree");
+    let bad: Vec<&String> = deps.iter().filter(|d| forbidden(d)).collect();
+    assert!(bad.is_empty(), "{package} depends on {bad:?}");
+}
+
+#[test]
+fn metrics_build_without_burn() {
+    assert_none("qean-eval", |d| d.starts_with("burn"));
+}
+
+#[test]
+fn config_builds_without_audio_or_images() {
+    assert_none("qean-config", |d| {
+        ["symphonia", "rustfft", "realfft", "png", "gif"].contains(&d) || d.starts_with("burn")
+    });
+}
+
+#[test]
+fn audio_features_build_without_burn_or_images() {
+    assert_none("qean-audio", |d| {
+        d.starts_with("burn") || d == "png" || d == "gif"
+    });
+}
