@@ -345,7 +345,7 @@ mod tests {
         };
         let req = request(3.0, 400, d);
         let out = autoregress::<()>(
-            &[req.clone()],
+            std::slice::from_ref(&req),
             &opts,
             |_m, _a, b| Ok(vec![0.25; b * d]),
             |_, _| {},
@@ -396,9 +396,9 @@ mod tests {
             for i in 0..8usize {
                 // Frame i is predicted by passes i − j (token j) for j ≤ min(i, 2).
                 let (mut num, mut den) = (0.0, 0.0);
-                for j in 0..=i.min(2) {
-                    num += w[j] * (i - j) as f64;
-                    den += w[j];
+                for (j, wj) in w.iter().enumerate().take(i.min(2) + 1) {
+                    num += wj * (i - j) as f64;
+                    den += wj;
                 }
                 let got = out[0][(120 + i) * d];
                 assert!(

@@ -91,7 +91,7 @@ impl DanceModel {
 
 /// Shortens every `[a, b, c, ...]` list in `text` to its first `keep` items and a count, so that an
 /// error naming hundreds of tensors stays one readable line.
-fn shorten_lists(text: &str, keep: usize) -> String {
+pub fn shorten_lists(text: &str, keep: usize) -> String {
     let mut out = String::new();
     let mut rest = text;
     while let Some(open) = rest.find('[') {

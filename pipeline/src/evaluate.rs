@@ -106,10 +106,99 @@ pub struct RunEvaluation {
 
 /// Runs checkpoint mode.
 pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
-    let run: &Path = &req.run;
-    let data = &req.data;
-    let ck = qean_train::checkpoint::resolve_in_run(run, req.checkpoint.as_deref())?;
-    let ds = Dataset::open(data)?;
+    let ck = qean_train::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
+    let out_dir = req
+        .run
+        .join("eval")
+        .join(eval_dir_name(ck.state.step, req.tag.as_deref())?);
+    let ds = Dataset::open(&req.data)?;
+    let names = protocol_sequences(&ds)?;
+    let config = &ck.config;
+    let seed_frames = config.model.motion_len;
+    let pairs = pairings(&names, req.protocol);
+    let requests = sample_requests(&ds, &pairs, config)?;
+    let opts = sample_options(req, config)?;
+    let dances = sample_dances(req, &ck, &requests, &opts)?;
+    let (generated, pairings_out) =
+        write_generated(&out_dir, &pairs, &dances, &opts, seed_frames, req.root)?;
+    let reference = reference_set(&ds, req.root)?;
+
+    let mut ba_names: Vec<&str> = generated.iter().map(|s| s.name.as_str()).collect();
+    ba_names.extend(names.iter().map(String::as_str));
+    let wav = req.data.join("wav");
+    let beats = music_beats(&wav, ba_names.into_iter(), req.ba_music_beats)?;
+    let lookup = |id: &str| -> qean_eval::Result<Vec<usize>> {
+        beats
+            .get(id)
+            .cloned()
+            .ok_or_else(|| qean_eval::Error::file(&wav, format!("no audio for music ID '{id}'")))
+    };
+    let configs: Vec<EvalConfig> = req
+        .configs
+        .iter()
+        .map(|c| EvalConfig {
+            seed_frames,
+            music_offset: 0,
+            max_frames: req.max_frames,
+            ..c.clone()
+        })
+        .collect();
+    let reports = configs
+        .iter()
+        .map(|cfg| evaluate(&generated, &reference, Some(&lookup), cfg))
+        .collect::<qean_eval::Result<Vec<_>>>()?;
+    let baselines = match configs.first() {
+        Some(cfg) if req.baselines => Some(chance_baselines(&generated, &reference, &lookup, cfg)?),
+        _ => None,
+    };
+    let report = RunReport {
+        checkpoint: ck.dir.clone(),
+        step: ck.state.step,
+        protocol: req.protocol,
+        frames: req.max_frames,
+        feedback_project: opts.feedback_project,
+        ensemble: opts.ensemble,
+        seam_frames: opts.seam_frames,
+        pairings: pairings_out,
+        reports,
+        baselines,
+    };
+    let table = write_report(
+        &out_dir,
+        &report,
+        &label(config, ck.state.step),
+        seed_frames,
+    )?;
+    let file = EvaluationFile {
+        reports: report.reports.clone(),
+    };
+    if let Some(path) = &req.json {
+        write_json_atomic(path, &file)?;
+    }
+    Ok(RunEvaluation {
+        file,
+        table: format!("{table}\nreport: {}\n", out_dir.join("report.md").display()),
+        report,
+        dir: out_dir,
+    })
+}
+
+/// `step-N`, or `step-N-TAG` for a tag of letters, digits, '-', '_' or '.'.
+fn eval_dir_name(step: u64, tag: Option<&str>) -> anyhow::Result<String> {
+    if let Some(tag) = tag {
+        let ok = !tag.is_empty()
+            && tag
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c));
+        if !ok {
+            bail!("--tag {tag:?}: use letters, digits, '-', '_' or '.'");
+        }
+    }
+    Ok(qean_eval::curves::eval_dir_name(step, tag))
+}
+
+/// The test and val sequences whose motion files exist (at least 2), with their music features cached.
+fn protocol_sequences(ds: &Dataset) -> anyhow::Result<Vec<String>> {
     let mut names = ds.split(Split::Test);
     names.extend(ds.split(Split::Val));
     names.retain(|n| {
@@ -124,19 +213,23 @@ pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
     if names.len() < 2 {
         bail!(
             "{}: the test and val splits hold {} motion(s); the metrics need at least 2",
-            data.display(),
+            ds.root.display(),
             names.len()
         );
     }
-    qean_train::data::ensure_features(&ds, &names)?;
-    let config = &ck.config;
-    let layout = config.layout();
-    let seed_frames = config.model.motion_len;
-    let root = req.root;
+    qean_train::data::ensure_features(ds, &names)?;
+    Ok(names)
+}
 
-    let pairs = pairings(&names, req.protocol);
+/// One sampler request per pairing: the motion's first frames as the seed, the music's features.
+fn sample_requests(
+    ds: &Dataset,
+    pairs: &[(String, String, String)],
+    config: &qean_train::RunConfig,
+) -> anyhow::Result<Vec<SampleRequest>> {
+    let (layout, seed_frames) = (config.layout(), config.model.motion_len);
     let mut requests = Vec::new();
-    for (motion, music, _) in &pairs {
+    for (motion, music, _) in pairs {
         let path = ds.motion_path(motion);
         let m = Motion::read_pkl(&path)?;
         if m.frames < seed_frames {
@@ -146,33 +239,33 @@ pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
                 m.frames
             );
         }
-        let (audio, _) = feature_cache::load(&ds, music)?;
-        let audio = config
-            .recipe
-            .model_audio(audio, qean_aistpp::windows::AUDIO_DIM);
+        let (audio, _) = feature_cache::load(ds, music)?;
         requests.push(SampleRequest {
             seed: m.slice(0, seed_frames).to_layout(layout),
-            audio,
+            audio: config
+                .recipe
+                .model_audio(audio, qean_aistpp::windows::AUDIO_DIM),
         });
     }
+    Ok(requests)
+}
+
+/// The sampler's options: the request's overrides, else the run's recipe.
+fn sample_options(
+    req: &RunEvalRequest,
+    config: &qean_train::RunConfig,
+) -> anyhow::Result<SampleOptions> {
+    let s = &req.sampling;
+    let r = &config.recipe;
     let opts = SampleOptions {
         frames: req.max_frames,
-        audio_pad: req.sampling.audio_pad,
-        feedback_project: req
-            .sampling
-            .feedback_project
-            .unwrap_or(config.recipe.feedback_project),
-        offset_output: config.recipe.predict == qean_config::recipe::Predict::Offset,
-        ensemble: req.sampling.ensemble.unwrap_or(config.recipe.ensemble),
-        ensemble_decay: req
-            .sampling
-            .ensemble_decay
-            .unwrap_or(config.recipe.ensemble_decay),
-        seam_frames: req
-            .sampling
-            .seam_frames
-            .unwrap_or(config.recipe.seam_frames),
-        layout,
+        audio_pad: s.audio_pad,
+        feedback_project: s.feedback_project.unwrap_or(r.feedback_project),
+        offset_output: r.predict == qean_config::recipe::Predict::Offset,
+        ensemble: s.ensemble.unwrap_or(r.ensemble),
+        ensemble_decay: s.ensemble_decay.unwrap_or(r.ensemble_decay),
+        seam_frames: s.seam_frames.unwrap_or(r.seam_frames),
+        layout: config.layout(),
         spec: config.window_spec(),
     };
     qean_config::recipe::check_ensemble(
@@ -181,11 +274,21 @@ pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
         config.model.target_len,
     )
     .map_err(anyhow::Error::msg)?;
+    Ok(opts)
+}
+
+/// Every request sampled in one batch with the checkpoint's model, with a progress bar.
+fn sample_dances(
+    req: &RunEvalRequest,
+    ck: &qean_train::Checkpoint,
+    requests: &[SampleRequest],
+    opts: &SampleOptions,
+) -> anyhow::Result<Vec<Vec<f32>>> {
     let backend = req
         .sampling
         .backend
         .clone()
-        .unwrap_or_else(|| config.train.backend.clone());
+        .unwrap_or_else(|| ck.config.train.backend.clone());
     let device = qean_models::backend::device(&backend).map_err(anyhow::Error::msg)?;
     let model = ck.load_model(&device)?;
     let pb = ProgressBar::new(req.max_frames as u64);
@@ -196,32 +299,32 @@ pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
         ))
         .expect("valid template"),
     );
-    let dances = qean_models::sampler::sample(&model, &device, &requests, &opts, |done, total| {
+    let dances = qean_models::sampler::sample(&model, &device, requests, opts, |done, total| {
         pb.set_length(total as u64);
         pb.set_position(done as u64);
     })?;
     pb.finish_and_clear();
+    Ok(dances)
+}
 
-    let mut dir_name = qean_train::run_dir::checkpoint_name(ck.state.step);
-    if let Some(tag) = &req.tag {
-        if tag.is_empty()
-            || !tag
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
-        {
-            bail!("--tag {tag:?}: use letters, digits, '-', '_' or '.'");
-        }
-        dir_name = format!("{dir_name}-{tag}");
-    }
-    let out_dir = run.join("eval").join(dir_name);
+/// The generated dances as joint positions, written to `out_dir/generated/NAME.joints.npy`, with
+/// their pairings.
+fn write_generated(
+    out_dir: &Path,
+    pairs: &[(String, String, String)],
+    dances: &[Vec<f32>],
+    opts: &SampleOptions,
+    seed_frames: usize,
+    root: qean_motion::FkRoot,
+) -> anyhow::Result<(Vec<Sequence>, Vec<Pairing>)> {
     let joints_dir = out_dir.join("generated");
     std::fs::create_dir_all(&joints_dir)
         .with_context(|| format!("{}: cannot create", joints_dir.display()))?;
-    let d = layout.dim();
+    let d = opts.layout.dim();
     let mut generated = Vec::new();
-    let mut pairings_out = Vec::new();
-    for ((motion, music, name), dance) in pairs.iter().zip(&dances) {
-        let m = Motion::from_layout(dance, layout)
+    let mut pairings = Vec::new();
+    for ((motion, music, name), dance) in pairs.iter().zip(dances) {
+        let m = Motion::from_layout(dance, opts.layout)
             .map_err(|e| anyhow::anyhow!("generated {name}: {e}"))?;
         let points = m.joints(root);
         qean_motion::joints_file::write_joints(
@@ -232,22 +335,25 @@ pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
             name: name.clone(),
             joints: frames_of(points),
         });
-        pairings_out.push(Pairing {
+        pairings.push(Pairing {
             name: name.clone(),
             motion: motion.clone(),
             music_id: music.clone(),
             generated: dance.len() / d - seed_frames,
         });
     }
-    let lengths: Vec<usize> = pairings_out.iter().map(|p| p.generated).collect();
+    let lengths: Vec<usize> = pairings.iter().map(|p| p.generated).collect();
     tracing::info!(
         "generated {} sequences, {}..={} frames each",
         lengths.len(),
         lengths.iter().min().unwrap_or(&0),
         lengths.iter().max().unwrap_or(&0)
     );
+    Ok((generated, pairings))
+}
 
-    // The GT reference set: every non-ignored motion, full length.
+/// The ground-truth reference set: every non-ignored motion, full length.
+fn reference_set(ds: &Dataset, root: qean_motion::FkRoot) -> anyhow::Result<Vec<Sequence>> {
     let mut reference = Vec::new();
     for name in ds.all_sequences()? {
         let m = Motion::read_pkl(&ds.motion_path(&name))?;
@@ -256,112 +362,94 @@ pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
             joints: frames_of(m.joints(root)),
         });
     }
-    let mut ba_names: Vec<&str> = generated.iter().map(|s| s.name.as_str()).collect();
-    ba_names.extend(names.iter().map(String::as_str));
-    let beats = music_beats(&data.join("wav"), ba_names.into_iter(), req.ba_music_beats)?;
-    let lookup = |id: &str| -> qean_eval::Result<Vec<usize>> {
-        beats.get(id).cloned().ok_or_else(|| {
-            qean_eval::Error::file(data.join("wav"), format!("no audio for music ID '{id}'"))
-        })
-    };
-    let mut reports = Vec::new();
-    for mut cfg in req.configs.clone() {
-        cfg.seed_frames = seed_frames;
-        cfg.music_offset = 0;
-        cfg.max_frames = req.max_frames;
-        reports.push(evaluate(&generated, &reference, Some(&lookup), &cfg)?);
+    Ok(reference)
+}
+
+/// The chance baselines, scored with `cfg`: the frozen seed pose, and the dances against other music.
+/// They repeat the warnings the main evaluation gave (constant reference dimensions; renamed dances have
+/// no GT partner), so they run silently.
+fn chance_baselines(
+    generated: &[Sequence],
+    reference: &[Sequence],
+    lookup: qean_eval::protocol::BeatLookup,
+    cfg: &EvalConfig,
+) -> anyhow::Result<Baselines> {
+    let quiet = || tracing::subscriber::NoSubscriber::default();
+    let frozen = tracing::subscriber::with_default(quiet(), || {
+        evaluate(
+            &frozen_dances(generated, cfg.seed_frames),
+            reference,
+            Some(lookup),
+            cfg,
+        )
+    })?;
+    let mut pairings = Vec::new();
+    for shift in 1.. {
+        let Some(g) = repaired_dances(generated, shift) else {
+            break;
+        };
+        pairings.push(tracing::subscriber::with_default(quiet(), || {
+            evaluate(&g, reference, Some(lookup), cfg)
+        })?);
     }
+    Ok(Baselines {
+        frozen,
+        random_pairing: average_beat_align(pairings),
+    })
+}
+
+/// The row label of a checkpoint's reports.
+fn label(config: &qean_train::RunConfig, step: u64) -> String {
     let m = &config.model;
-    let label = match m.arch {
-        qean_models::config::Arch::Fact => format!("FACT step {}", ck.state.step),
+    match m.arch {
+        qean_models::config::Arch::Fact => format!("FACT step {step}"),
         qean_models::config::Arch::Qean => format!(
-            "QEAN ({:?} positions, {:?} attention) step {}",
-            m.position, m.attention, ck.state.step
+            "QEAN ({:?} positions, {:?} attention) step {step}",
+            m.position, m.attention
         )
         .to_lowercase()
         .replacen("qean", "QEAN", 1),
-    };
-    let labels: Vec<String> = reports
+    }
+}
+
+/// Writes `report.json` and `report.md` (the settings in a heading over the table); returns the table.
+fn write_report(
+    out_dir: &Path,
+    report: &RunReport,
+    label: &str,
+    seed_frames: usize,
+) -> anyhow::Result<String> {
+    let labels: Vec<String> = report
+        .reports
         .iter()
-        .map(|r| match reports.len() {
-            1 => label.clone(),
+        .map(|r| match report.reports.len() {
+            1 => label.to_string(),
             _ => format!("{label} ({})", value_name(r.config.metrics_mode)),
         })
         .collect();
-    let baselines = match (req.baselines, req.configs.first().cloned()) {
-        (true, Some(mut cfg)) => {
-            cfg.seed_frames = seed_frames;
-            cfg.music_offset = 0;
-            cfg.max_frames = req.max_frames;
-            // The baselines repeat the warnings the main evaluation gave (constant reference
-            // dimensions; renamed dances have no GT partner): run them silently.
-            let quiet = || tracing::subscriber::NoSubscriber::default();
-            let frozen = tracing::subscriber::with_default(quiet(), || {
-                evaluate(
-                    &frozen_dances(&generated, seed_frames),
-                    &reference,
-                    Some(&lookup),
-                    &cfg,
-                )
-            })?;
-            let mut pairings = Vec::new();
-            for shift in 1.. {
-                let Some(g) = repaired_dances(&generated, shift) else {
-                    break;
-                };
-                pairings.push(tracing::subscriber::with_default(quiet(), || {
-                    evaluate(&g, &reference, Some(&lookup), &cfg)
-                })?);
-            }
-            let random_pairing = average_beat_align(pairings);
-            Some(Baselines {
-                frozen,
-                random_pairing,
-            })
-        }
-        _ => None,
-    };
-    let mut rows: Vec<(&str, &MetricsReport)> =
-        labels.iter().map(String::as_str).zip(&reports).collect();
-    if let Some(b) = &baselines {
+    let mut rows: Vec<(&str, &MetricsReport)> = labels
+        .iter()
+        .map(String::as_str)
+        .zip(&report.reports)
+        .collect();
+    if let Some(b) = &report.baselines {
         rows.push(("chance: frozen seed pose", &b.frozen));
         if let Some(r) = &b.random_pairing {
             rows.push(("chance: random music pairing", r));
         }
     }
     let table = render_markdown(&rows);
-    let report = RunReport {
-        checkpoint: ck.dir.clone(),
-        step: ck.state.step,
-        protocol: req.protocol,
-        frames: req.max_frames,
-        feedback_project: opts.feedback_project,
-        ensemble: opts.ensemble,
-        seam_frames: opts.seam_frames,
-        pairings: pairings_out,
-        reports: reports.clone(),
-        baselines,
-    };
-    write_json_atomic(&out_dir.join("report.json"), &report)?;
+    write_json_atomic(&out_dir.join("report.json"), report)?;
     let md = format!(
         "# Evaluation of {} ({:?} protocol, {} sequences, seed = first {seed_frames} GT frames, up to {} generated frames, {} feedback, {} pass(es) per frame, seed's end eased over {} frames)\n\n{table}",
-        ck.dir.display(),
-        req.protocol,
+        report.checkpoint.display(),
+        report.protocol,
         report.pairings.len(),
-        req.max_frames,
-        if opts.feedback_project { "projected" } else { "raw" },
-        opts.ensemble,
-        opts.seam_frames
+        report.frames,
+        if report.feedback_project { "projected" } else { "raw" },
+        report.ensemble,
+        report.seam_frames
     );
     qean_io::fsutil::atomic_write(&out_dir.join("report.md"), md.as_bytes())?;
-    let file = EvaluationFile { reports };
-    if let Some(path) = &req.json {
-        write_json_atomic(path, &file)?;
-    }
-    Ok(RunEvaluation {
-        file,
-        table: format!("{table}\nreport: {}\n", out_dir.join("report.md").display()),
-        report,
-        dir: out_dir,
-    })
+    Ok(table)
 }

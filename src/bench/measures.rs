@@ -12,7 +12,8 @@ use qean_eval::{evaluate, EvalConfig, Sequence};
 use qean_models::autoregress::{SampleOptions, SampleRequest};
 use qean_models::sampler::sample;
 use qean_models::DanceModel;
-use qean_train::trainer::{adam, update};
+use qean_train::fact_qean::update;
+use qean_train::trainer::adam;
 use qean_train::RunConfig;
 use serde::{Deserialize, Serialize};
 

@@ -8,7 +8,7 @@ use anyhow::{anyhow, bail};
 use clap::Args;
 use qean_train::checkpoint::{self, Checkpoint};
 use qean_train::run_config::string_override;
-use qean_train::{sweep, ProgressMode, RunConfig, Start, TrainOptions};
+use qean_train::{sweep, ProgressMode, RunConfig, TrainOptions};
 
 /// Train FACT or QEAN from a TOML run config (SPEC §5): random 240-frame windows of the train split,
 /// L2 loss on the first 20 output tokens, Adam with the configured step schedule. Writes R/config.toml
@@ -82,62 +82,15 @@ fn progress(plain: bool) -> ProgressMode {
     }
 }
 
-/// A run directory that has its resolved config.toml but no checkpoint yet.
-fn fresh_run_without_checkpoint(path: &Path) -> bool {
-    path.join("config.toml").is_file()
-        && qean_train::run_dir::list_checkpoints(path).is_ok_and(|c| c.is_empty())
-}
-
 pub fn train(a: TrainArgs) -> anyhow::Result<i32> {
     let overrides = overrides(&a.set, &a.data, &a.backend);
-    let (config, run_dir, start) = match &a.resume {
-        Some(path) if fresh_run_without_checkpoint(path) => {
-            // Stopped (or killed) before its first checkpoint: start again from its own config.
-            let config_path = a.config.clone().unwrap_or_else(|| path.join("config.toml"));
-            let config = RunConfig::load(&config_path, &overrides).map_err(|e| anyhow!("{e}"))?;
-            tracing::warn!(
-                "{}: no checkpoint yet: training again from step 0",
-                path.display()
-            );
-            (config, path.clone(), Start::Auto)
-        }
-        Some(path) => {
-            let ck = checkpoint::resolve(path)?;
-            let run_dir = ck.run_dir().ok_or_else(|| {
-                anyhow!(
-                    "{}: not inside a run directory (R/checkpoints/step-N)",
-                    ck.dir.display()
-                )
-            })?;
-            if let Some(r) = &a.run_dir {
-                if std::fs::canonicalize(r).ok() != std::fs::canonicalize(&run_dir).ok() {
-                    bail!(
-                        "--run-dir {} does not hold the checkpoint {} (omit --run-dir with --resume)",
-                        r.display(),
-                        ck.dir.display()
-                    );
-                }
-            }
-            let config_path = a
-                .config
-                .clone()
-                .unwrap_or_else(|| run_dir.join("config.toml"));
-            let config = RunConfig::load(&config_path, &overrides).map_err(|e| anyhow!("{e}"))?;
-            (config, run_dir, Start::From(ck.dir))
-        }
-        None => {
-            let config_path = a.config.clone().expect("clap requires --config");
-            let config = RunConfig::load(&config_path, &overrides).map_err(|e| anyhow!("{e}"))?;
-            let run_dir = a.run_dir.clone().unwrap_or_else(|| {
-                let stem = config_path
-                    .file_stem()
-                    .map(|s| s.to_string_lossy().into_owned())
-                    .unwrap_or_else(|| "run".into());
-                Path::new("runs").join(stem)
-            });
-            (config, run_dir, Start::Fresh)
-        }
-    };
+    let plan = qean_train::resume::plan(&qean_train::resume::RunRequest {
+        config: a.config.clone(),
+        resume: a.resume.clone(),
+        run_dir: a.run_dir.clone(),
+        overrides,
+    })?;
+    let (config, run_dir, start) = (plan.config, plan.run_dir, plan.start);
     let opts = TrainOptions {
         run_dir: run_dir.clone(),
         start,

@@ -111,9 +111,7 @@ impl Checkpoint {
 
     /// The model with this checkpoint's weights, on `device`.
     pub fn load_model(&self, device: &Device) -> Result<DanceModel> {
-        DanceModel::new(&self.config.model, device)
-            .load_weights(&self.dir.join(MODEL_FILE))
-            .map_err(Error::msg)
+        crate::family::load_checkpoint_model(&crate::fact_qean::FactQean, self, device)
     }
 
     /// Refuses to continue these weights as another model: the error names the checkpoint and the

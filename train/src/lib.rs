@@ -5,10 +5,14 @@
 pub mod checkpoint;
 pub mod data;
 pub mod export;
+pub mod fact_qean;
+pub mod family;
 pub mod logging;
 pub mod metrics_log;
 pub mod plot;
+pub mod progress;
 pub mod recipe;
+pub mod resume;
 pub use qean_config::run as run_config;
 pub mod run_dir;
 pub use qean_config::schedule;
@@ -16,5 +20,6 @@ pub mod sweep;
 pub mod trainer;
 
 pub use checkpoint::Checkpoint;
+pub use family::Family;
 pub use run_config::RunConfig;
-pub use trainer::{train, ProgressMode, Start, TrainOptions, TrainOutcome};
+pub use trainer::{train, train_family, ProgressMode, Start, TrainOptions, TrainOutcome};

@@ -1,0 +1,159 @@
+//! What a model family brings to the trainer. The loop (`trainer.rs`), the LR schedule, Adam, atomic
+//! checkpoints, exact resume, the NaN stop, sweeps, logs and plots are the same for every family; a family
+//! says what its model is, how a drawn batch of windows becomes its inputs, its loss and validation loss,
+//! and what extra state its checkpoints carry. FACT and QEAN are one family ([`crate::fact_qean`]).
+//!
+//! The batch source is shared: windows of the dataset's sequences ([`SequenceSet`], drawn by the
+//! resumable `WindowSampler`). A family that needs another representation (joint coordinates, tokens)
+//! builds it from the windows in [`Family::inputs`].
+
+use std::path::{Path, PathBuf};
+
+use burn::module::Module;
+use burn::tensor::{Device, Tensor};
+use qean_aistpp::dataset::{Dataset, Split};
+use qean_aistpp::windows::{Batch, SequenceSet, WindowSpec};
+use qean_io::error::{Error, Result};
+
+use crate::checkpoint::Checkpoint;
+use crate::run_config::RunConfig;
+
+/// The file a family's extra checkpoint state is written to, beside the weights.
+pub const FAMILY_STATE_FILE: &str = "family.json";
+
+/// What one update knows besides the batch.
+pub struct StepContext<'a> {
+    pub config: &'a RunConfig,
+    /// The plain (non-autodiff) device, for rollouts that must not be tracked.
+    pub plain: &'a Device,
+    /// The seed of this update's randomness (dropout masks, input noise).
+    pub rng_seed: u64,
+    /// Updates applied so far.
+    pub step: u64,
+}
+
+/// A model family the trainer can train.
+pub trait Family {
+    /// The Burn module trained (also what checkpoints store and samplers load).
+    type Model: Module;
+    /// A batch as the model takes it (tensors on the autodiff device).
+    type Inputs;
+
+    /// A fresh model on `device` (the trainer seeds the device first).
+    fn init(&self, config: &RunConfig, device: &Device) -> Self::Model;
+
+    /// Before the data loads: fill config values the family derives from the training split, taking
+    /// them from `resume` when continuing (a resumed run never recomputes them), and restore the
+    /// family's own state from the checkpoint ([`read_family_state`]). Default: nothing to do.
+    fn prepare(
+        &mut self,
+        _config: &mut RunConfig,
+        _dataset: &Dataset,
+        _train: Split,
+        _resume: Option<&Checkpoint>,
+    ) -> Result<()> {
+        Ok(())
+    }
+
+    /// The windows a training draw takes (may be longer than the model's, e.g. for rollouts).
+    fn draw_spec(&self, config: &RunConfig) -> WindowSpec {
+        config.window_spec()
+    }
+
+    /// The sequences of one split, cut to `spec`'s windows.
+    fn load_set(
+        &self,
+        dataset: &Dataset,
+        split: Split,
+        spec: WindowSpec,
+        config: &RunConfig,
+    ) -> Result<SequenceSet> {
+        crate::data::load_split(dataset, split, config.layout(), spec, &config.recipe)
+    }
+
+    /// A drawn batch as the model's inputs on `device` (the autodiff device).
+    fn inputs(
+        &self,
+        drawn: Batch,
+        model: &Self::Model,
+        device: &Device,
+        ctx: &StepContext,
+    ) -> Self::Inputs;
+
+    /// The training loss of one batch, a scalar tensor [1] (the trainer differentiates it).
+    fn loss(&self, model: &Self::Model, inputs: Self::Inputs, config: &RunConfig) -> Tensor<1>;
+
+    /// The validation loss of a whole split (model without autodiff, plain device).
+    fn validation_loss(
+        &self,
+        model: &Self::Model,
+        set: &SequenceSet,
+        config: &RunConfig,
+        device: &Device,
+    ) -> f64;
+
+    /// Extra state every checkpoint carries (e.g. coordinate bins fitted on the training split), written to
+    /// `family.json`. Default: none.
+    fn checkpoint_state(&self) -> Option<serde_json::Value> {
+        None
+    }
+}
+
+/// The family state of a checkpoint (`family.json`), if it has one.
+pub fn read_family_state(checkpoint: &Checkpoint) -> Result<Option<serde_json::Value>> {
+    let path = checkpoint.dir.join(FAMILY_STATE_FILE);
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    serde_json::from_str(&text)
+        .map(Some)
+        .map_err(|e| Error::at(&path, format!("malformed family state: {e}")))
+}
+
+/// The weights file of a path: `.bpk` added when it has no extension.
+fn weights_path(path: &Path) -> PathBuf {
+    if path.extension().is_some() {
+        path.to_path_buf()
+    } else {
+        path.with_extension("bpk")
+    }
+}
+
+/// Writes any model's weights to a burnpack file; returns the path written.
+pub fn save_weights<M: Module>(model: &M, path: &Path) -> Result<PathBuf> {
+    let path = weights_path(path);
+    model
+        .clone()
+        .save_file(&path)
+        .map_err(|e| Error::at(&path, format!("cannot save weights: {e}")))?;
+    Ok(path)
+}
+
+/// Loads weights saved by [`save_weights`] into a model of the same shape.
+pub fn load_weights<M: Module>(model: M, path: &Path) -> Result<M> {
+    let path = weights_path(path);
+    if !path.is_file() {
+        return Err(Error::at(&path, "no such weights file"));
+    }
+    model.try_load_file(&path).map_err(|e| {
+        let e = e.to_string();
+        Error::at(
+            &path,
+            format!(
+                "cannot load weights (written by another model or config?): {}",
+                qean_models::model::shorten_lists(e.lines().next().unwrap_or(""), 3)
+            ),
+        )
+    })
+}
+
+/// A checkpoint's model for `family`, on `device` (sampling, evaluation).
+pub fn load_checkpoint_model<F: Family>(
+    family: &F,
+    checkpoint: &Checkpoint,
+    device: &Device,
+) -> Result<F::Model> {
+    let model = family.init(&checkpoint.config, device);
+    load_weights(model, &checkpoint.dir.join(crate::checkpoint::MODEL_FILE))
+}
