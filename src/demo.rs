@@ -616,6 +616,66 @@ fn dance_sentence(e: &MotionEnergy) -> String {
     }
 }
 
+/// What the table needs said under it: `--quick` is a smoke test; a held-out dance that froze.
+fn table_note(budget: &Budget, models: &[ModelResult]) -> String {
+    if budget.quick {
+        return format!(
+            "\nThis was `qean demo --quick`, a smoke test of every stage: {} training steps are far too few, so its \
+             dances may freeze or jitter. `qean demo` trains long enough for dances that dance.\n",
+            budget.steps
+        );
+    }
+    if models.iter().any(|m| !m.dance_energy.dances()) {
+        return format!(
+            "\nA held-out dance that froze or jitters is not a dance, whatever its metrics. The table above scores \
+             up to {:.0} s per test and validation sequence; the held-out dance is {:.0} s of a real song. At this \
+             budget tiny FACT and tiny QEAN each kept dancing to it in two training seeds of three (this demo is seed \
+             0); docs/freezing.md (sections 5 and 6) has the measurements and what was tried.\n",
+            budget.eval_frames as f64 / 60.0,
+            budget.dance_frames as f64 / 60.0
+        );
+    }
+    String::new()
+}
+
+/// summary.md: the setting, the table, the artefacts and the time taken.
+fn summary_text(
+    budget: &Budget,
+    data: &Path,
+    table: &str,
+    models: &[ModelResult],
+    seconds: f64,
+) -> String {
+    let mut summary = format!(
+        "# qean demo\n\nDataset: {} ({} sequences of ~{} s). Each model trained {} steps (batch {}, windows of {} \
+         motion / {} music frames) on CPU; scored on the test + val split (seed = the first {} ground-truth \
+         frames, then up to {} generated frames), Bailando's metrics.\n\n{table}\n## Artefacts\n\n",
+        data.display(),
+        budget.sequences,
+        budget.seconds,
+        budget.steps,
+        budget.batch_size,
+        budget.motion_len,
+        budget.audio_len,
+        budget.motion_len,
+        budget.eval_frames
+    );
+    for m in models {
+        summary += &format!(
+            "- {}: run {}, checkpoint {}, report {}\n",
+            m.label,
+            m.run_dir.display(),
+            m.checkpoint.display(),
+            m.report_md.display()
+        );
+        for p in &m.dance {
+            summary += &format!("  - {}\n", p.display());
+        }
+    }
+    summary += &format!("\nTotal time of this demo run: {seconds:.0} s\n");
+    summary
+}
+
 /// Runs the demo.
 pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
     let started = Instant::now();
@@ -678,52 +738,13 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
             report,
         });
     }
-    let mut table = table(&models, &reference);
-    if opts.budget.quick {
-        table += &format!(
-            "\nThis was `qean demo --quick`, a smoke test of every stage: {} training steps are far too few, so its \
-             dances may freeze or jitter. `qean demo` trains long enough for dances that dance.\n",
-            opts.budget.steps
-        );
-    } else if models.iter().any(|m| !m.dance_energy.dances()) {
-        table += &format!(
-            "\nA held-out dance that froze or jitters is not a dance, whatever its metrics. The table above scores \
-             up to {:.0} s per test and validation sequence; the held-out dance is {:.0} s of a real song. At this \
-             budget tiny FACT and tiny QEAN each kept dancing to it in two training seeds of three (this demo is seed \
-             0); docs/freezing.md (sections 5 and 6) has the measurements and what was tried.\n",
-            opts.budget.eval_frames as f64 / 60.0,
-            opts.budget.dance_frames as f64 / 60.0
-        );
-    }
-    let mut summary = format!(
-        "# qean demo\n\nDataset: {} ({} sequences of ~{} s). Each model trained {} steps (batch {}, windows of {} \
-         motion / {} music frames) on CPU; scored on the test + val split (seed = the first {} ground-truth \
-         frames, then up to {} generated frames), Bailando's metrics.\n\n{table}\n## Artefacts\n\n",
-        data.display(),
-        opts.budget.sequences,
-        opts.budget.seconds,
-        opts.budget.steps,
-        opts.budget.batch_size,
-        opts.budget.motion_len,
-        opts.budget.audio_len,
-        opts.budget.motion_len,
-        opts.budget.eval_frames
-    );
-    for m in &models {
-        summary += &format!(
-            "- {}: run {}, checkpoint {}, report {}\n",
-            m.label,
-            m.run_dir.display(),
-            m.checkpoint.display(),
-            m.report_md.display()
-        );
-        for p in &m.dance {
-            summary += &format!("  - {}\n", p.display());
-        }
-    }
-    summary += &format!(
-        "\nTotal time of this demo run: {:.0} s\n",
-        started.elapsed().as_secs_f64()
+    let table = table(&models, &reference) + &table_note(&opts.budget, &models);
+    let summary = summary_text(
+        &opts.budget,
+        &data,
+        &table,
+        &models,
+        started.elapsed().as_secs_f64(),
     );
     let path = out.join("summary.md");
     atomic_write(&path, summary.as_bytes())?;

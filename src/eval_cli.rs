@@ -18,6 +18,7 @@ use qean_pipeline::evaluate::{evaluate_run, RunEvalRequest, SamplingOverrides};
 /// BeatAlign, computed as Bailando's and mint's reference code computes them (bugs included by
 /// default; see --metrics-mode).
 #[derive(Debug, Parser)]
+#[command(about = "Score dances with the AIST++ metrics: FID_k, FID_g, Dist_k, Dist_g, BeatAlign")]
 pub struct Args {
     /// Directory of generated motions, seed frames first: joint positions as .npy (T, 24, 3) or (T, 72), model
     /// vectors .npy (T, 225|219), AIST++ .pkl (forward kinematics applied) or .bvh.
@@ -228,6 +229,7 @@ pub fn run_eval(args: &Args) -> anyhow::Result<String> {
 ///   qean curves sweeps/freezing-runs --out docs/freezing/steps
 ///   qean curves runs/a runs/b --evaluate --data synth --max-frames 600 --out curves
 #[derive(Debug, Parser)]
+#[command(about = "Plot metrics against training steps for runs grouped over seeds")]
 pub struct CurvesArgs {
     /// Run directories, or directories of runs (e.g. a sweep's S-runs/).
     #[arg(required = true)]

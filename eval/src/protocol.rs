@@ -61,23 +61,18 @@ fn music_id(name: &str) -> Result<String> {
     })
 }
 
-/// Evaluate `generated` (seed ++ generated frames, per `cfg.seed_frames`) against the GT
-/// `reference` set (full length). With `music_beats`, BeatAlign is computed too.
-///
-/// Degenerate inputs: a non-finite joint is an error; a sequence too short for the features
-/// (fewer than 4 evaluated frames) is excluded and logged; fewer than 2 usable sequences on
-/// either side is an error (covariances and Dist need 2); a sequence without music beats in range
-/// is left out of BeatAlign and logged.
-pub fn evaluate(
-    generated: &[Sequence],
-    reference: &[Sequence],
-    music_beats: Option<BeatLookup>,
+/// The sequences the metrics can use: generated ones with their evaluated length, reference ones, and
+/// the exclusions (too short for the features), logged. Fewer than 2 on either side is an error.
+#[allow(clippy::type_complexity)]
+fn usable<'a>(
+    generated: &'a [Sequence],
+    reference: &'a [Sequence],
     cfg: &EvalConfig,
-) -> Result<MetricsReport> {
-    generated
-        .par_iter()
-        .chain(reference.par_iter())
-        .try_for_each(|s| check_finite(&s.name, &s.joints))?;
+) -> Result<(
+    Vec<(&'a Sequence, usize)>,
+    Vec<&'a Sequence>,
+    Vec<Exclusion>,
+)> {
     let mut excluded = Vec::new();
     let min = kinetic::MIN_FRAMES;
 
@@ -134,28 +129,29 @@ pub fn evaluate(
         }
     }
 
-    info!(
-        generated = gen.len(),
-        reference = refs.len(),
-        "computing features ({})",
-        cfg.label()
-    );
-    let gen_feats: Vec<Features> = gen
-        .par_iter()
-        .map(|(s, len)| features_of(&s.joints[cfg.seed_frames..cfg.seed_frames + len], cfg))
-        .collect::<Result<_>>()?;
-    let ref_feats: Vec<Features> = refs
-        .par_iter()
-        .map(|s| features_of(&s.joints, cfg))
-        .collect::<Result<_>>()?;
+    Ok((gen, refs, excluded))
+}
 
+/// FID and Dist of the normalised features (normalised by the reference set's statistics).
+struct Distribution {
+    fid_k: f64,
+    fid_g: f64,
+    div_k: f64,
+    div_g: f64,
+    gt_div_k: f64,
+    gt_div_g: f64,
+    norm_k: Normaliser,
+    norm_g: Normaliser,
+}
+
+fn distribution(gen_feats: &[Features], ref_feats: &[Features]) -> Result<Distribution> {
     let split = |f: &[Features]| -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
         f.iter()
             .map(|x| (x.kinetic.clone(), x.geometric.clone()))
             .unzip()
     };
-    let (gen_k, gen_g) = split(&gen_feats);
-    let (ref_k, ref_g) = split(&ref_feats);
+    let (gen_k, gen_g) = split(gen_feats);
+    let (ref_k, ref_g) = split(ref_feats);
     let norm_k = Normaliser::fit(&ref_k)?;
     let norm_g = Normaliser::fit(&ref_g)?;
     for (what, n) in [("kinetic", &norm_k), ("geometric", &norm_g)] {
@@ -176,7 +172,34 @@ pub fn evaluate(
     let gt_div_k = average_distance(&ref_kn)?;
     let gt_div_g = average_distance(&ref_gn)?;
 
-    // BeatAlign, the music beats looked up once per music ID.
+    Ok(Distribution {
+        fid_k,
+        fid_g,
+        div_k,
+        div_g,
+        gt_div_k,
+        gt_div_g,
+        norm_k,
+        norm_g,
+    })
+}
+
+/// BeatAlign per generated sequence, of the ground truth of the same name, and the music IDs.
+struct Beats {
+    scores: Vec<Option<BeatScores>>,
+    gt_scores: Vec<BeatScores>,
+    music_ids: Vec<Option<String>>,
+}
+
+/// BeatAlign, the music beats looked up once per music ID; sequences without beats in their scored
+/// segment are added to `excluded`.
+fn beat_scores(
+    gen: &[(&Sequence, usize)],
+    refs: &[&Sequence],
+    music_beats: Option<BeatLookup>,
+    cfg: &EvalConfig,
+    excluded: &mut Vec<Exclusion>,
+) -> Result<Beats> {
     let mut scores: Vec<Option<BeatScores>> = vec![None; gen.len()];
     let mut gt_scores: Vec<BeatScores> = Vec::new();
     let mut music_ids: Vec<Option<String>> = vec![None; gen.len()];
@@ -237,6 +260,60 @@ pub fn evaluate(
         }
         music_ids = ids.into_iter().map(Some).collect();
     }
+    Ok(Beats {
+        scores,
+        gt_scores,
+        music_ids,
+    })
+}
+
+/// Evaluate `generated` (seed ++ generated frames, per `cfg.seed_frames`) against the GT
+/// `reference` set (full length). With `music_beats`, BeatAlign is computed too.
+///
+/// Degenerate inputs: a non-finite joint is an error; a sequence too short for the features
+/// (fewer than 4 evaluated frames) is excluded and logged; fewer than 2 usable sequences on
+/// either side is an error (covariances and Dist need 2); a sequence without music beats in range
+/// is left out of BeatAlign and logged.
+pub fn evaluate(
+    generated: &[Sequence],
+    reference: &[Sequence],
+    music_beats: Option<BeatLookup>,
+    cfg: &EvalConfig,
+) -> Result<MetricsReport> {
+    generated
+        .par_iter()
+        .chain(reference.par_iter())
+        .try_for_each(|s| check_finite(&s.name, &s.joints))?;
+    let (gen, refs, mut excluded) = usable(generated, reference, cfg)?;
+    info!(
+        generated = gen.len(),
+        reference = refs.len(),
+        "computing features ({})",
+        cfg.label()
+    );
+    let gen_feats: Vec<Features> = gen
+        .par_iter()
+        .map(|(s, len)| features_of(&s.joints[cfg.seed_frames..cfg.seed_frames + len], cfg))
+        .collect::<Result<_>>()?;
+    let ref_feats: Vec<Features> = refs
+        .par_iter()
+        .map(|s| features_of(&s.joints, cfg))
+        .collect::<Result<_>>()?;
+    let Distribution {
+        fid_k,
+        fid_g,
+        div_k,
+        div_g,
+        gt_div_k,
+        gt_div_g,
+        norm_k,
+        norm_g,
+    } = distribution(&gen_feats, &ref_feats)?;
+    let Beats {
+        scores,
+        gt_scores,
+        music_ids,
+    } = beat_scores(&gen, &refs, music_beats, cfg, &mut excluded)?;
     // Motion energy: the evaluated frames against the whole reference set (raw positions:
     // differences do not depend on the zero-start).
     let energy_reference = EnergyReference::fit(refs.iter().map(|s| s.joints.as_slice()));

@@ -21,6 +21,7 @@ use qean::bench::{self, BenchOptions, MeasureId, Peers};
 ///   qean bench --peers --torch-python torch/bin/python --librosa-python lr/bin/python --json b.json
 #[derive(Args, Debug)]
 #[command(verbatim_doc_comment)]
+#[command(about = "Measure the speed and memory of every stage, with peers side by side")]
 pub struct BenchArgs {
     /// Only the tiny model, fewer repeats.
     #[arg(long)]

@@ -13,6 +13,7 @@ use qean_synth as synth;
 /// their energy, so a model learns to dance to the beat and the chords, not to a loudness level.
 /// Deterministic for a given seed.
 #[derive(Args, Debug)]
+#[command(about = "Make a synthetic AIST++-format dataset: procedural music and dances")]
 pub struct SynthArgs {
     /// Output directory (must not exist, or be empty). Written atomically.
     #[arg(long)]
@@ -73,6 +74,7 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
 /// Summarise a motion pickle (.pkl), a .npy array, an audio file (duration, rate, channels, tempo, beats), a
 /// model config (.toml: architecture and exact parameter count) or an AIST++-layout dataset directory.
 #[derive(Args, Debug)]
+#[command(about = "Summarise a motion, array, audio file, model config, run or dataset")]
 pub struct InspectArgs {
     /// The file or directory to describe.
     pub path: PathBuf,
@@ -86,6 +88,7 @@ pub fn inspect(a: InspectArgs) -> anyhow::Result<()> {
 
 /// Forward kinematics: an AIST++ motion pickle to joint positions, a (frames, 24, 3) float32 .npy.
 #[derive(Args, Debug)]
+#[command(about = "Forward kinematics: a motion pickle to joint positions (.npy)")]
 pub struct JointsArgs {
     /// AIST++ motion pickle (smpl_poses, smpl_trans, smpl_scaling).
     pub motion: PathBuf,
@@ -111,6 +114,7 @@ pub fn joints(a: JointsArgs) -> anyhow::Result<()> {
 /// Render a preview of any motion: an animated stick figure (GIF) and a contact sheet of key frames (PNG) with
 /// the music's beats marked when known.
 #[derive(Args, Debug)]
+#[command(about = "Render a motion: a stick-figure GIF and a contact sheet (PNG)")]
 pub struct RenderArgs {
     /// Motion file: AIST++ .pkl, .npy of joints (frames, 24, 3) or of model vectors (frames, 225|219), or .bvh.
     pub motion: PathBuf,
@@ -171,6 +175,7 @@ pub fn render(a: RenderArgs) -> anyhow::Result<()> {
 /// Convert a motion between formats: an AIST++ .pkl or a .npy of model vectors (frames, 225|219) to .bvh (SMPL
 /// skeleton, 60 fps, centimetres), .npy (joint positions, frames × 24 × 3) or .pkl (AIST++ format).
 #[derive(Args, Debug)]
+#[command(about = "Convert a motion between .pkl, .npy and .bvh")]
 pub struct ConvertArgs {
     /// Input motion: .pkl (AIST++) or .npy (frames, 225|219).
     pub motion: PathBuf,

@@ -15,6 +15,7 @@ use qean_train::ProgressMode;
 ///
 /// Example: qean demo --quick
 #[derive(Args, Debug)]
+#[command(about = "Run the whole system on embedded data (start here: qean demo --quick)")]
 pub struct DemoArgs {
     /// Output directory (default: qean-demo, or qean-demo-quick with --quick).
     #[arg(long)]

@@ -14,6 +14,7 @@ use qean_audio::{self as audio, FeatureOptions, Resampler};
 /// or, with --dataset, cache the features of every music ID of an AIST++-layout directory in DIR/features/
 /// (skipping those already cached and up to date).
 #[derive(Args, Debug)]
+#[command(about = "Compute the 35-D FACT music features of audio files or a dataset")]
 pub struct FeaturesArgs {
     /// Audio files (wav, ogg, mp3, flac; any rate and channel count).
     pub audio: Vec<PathBuf>,

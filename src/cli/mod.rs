@@ -38,7 +38,6 @@ pub enum Command {
     Sweep(train_cmds::SweepArgs),
     Export(train_cmds::ExportArgs),
     Sample(sample_cmd::SampleArgs),
-    /// AIST++ metrics (FID_k, FID_g, Dist_k, Dist_g, BeatAlign); the same as the `qean-eval` binary.
     Eval(qean::eval_cli::Args),
     Curves(qean::eval_cli::CurvesArgs),
     Demo(demo_cmd::DemoArgs),

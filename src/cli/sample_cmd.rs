@@ -9,18 +9,24 @@ use qean_models::autoregress::AudioPad;
 use qean_pipeline::generate::{self, GenerateOptions, SeedSource};
 use qean_train::checkpoint;
 
-/// Generate a dance for a song with a trained model (SPEC §6: one model pass per frame, sliding the motion and
-/// music windows; each new frame is the first output token (mint) or the mean of what the last N passes
-/// predicted for it (the run's `recipe.ensemble`)). Prints each dance's speed per 5 s and warns when it froze
-/// or jitters. Writes, per song, into --out:
+/// Generate a dance for each song with a trained model (SPEC §6): one model pass per frame, sliding
+/// the motion and music windows; each new frame is the first output token (mint) or the mean of what
+/// the last N passes predicted for it (the run's `recipe.ensemble`). Prints each dance's speed per
+/// 5 s and warns when it froze or jitters.
+///
+/// Writes, per song, into --out:
 ///   NAME.pkl         AIST++ format (smpl_poses, smpl_trans, smpl_scaling, seed_frames)
 ///   NAME.joints.npy  joint positions, frames × 24 × 3, float32, +Y up, 60 fps
 ///   NAME.bvh         SMPL skeleton at 60 fps (opens in Blender)
-///   NAME.png/.gif    with --render: a contact sheet with the music's beats marked, and an animation
-/// Every output starts with the seed frames (the run's `model.motion_len`: 120 for mint's FACT, 30 in the demo).
+///   NAME.png/.gif    with --render: a contact sheet with the music's beats marked, and an
+///                    animation
+/// Every output starts with the seed frames (the run's `model.motion_len`: 120 for mint's FACT,
+/// 30 in the demo).
 ///
 /// Example: qean sample --run runs/full --music song.ogg --out dances --render
 #[derive(Args, Debug)]
+#[command(verbatim_doc_comment)]
+#[command(about = "Generate dances for songs with a trained model")]
 pub struct SampleArgs {
     /// Run directory (its newest checkpoint is used unless --checkpoint names one).
     #[arg(long)]

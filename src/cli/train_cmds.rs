@@ -21,6 +21,7 @@ use qean_train::{sweep, ProgressMode, RunConfig, TrainOptions};
 ///   qean train --resume runs/full --set train.steps=4000
 #[derive(Args, Debug)]
 #[command(verbatim_doc_comment)]
+#[command(about = "Train FACT or QEAN from a TOML run config, or resume a run")]
 pub struct TrainArgs {
     /// Run config (TOML; see configs/README.md). Optional with --resume (R/config.toml is used).
     #[arg(long, required_unless_present = "resume")]
@@ -140,6 +141,7 @@ pub fn train(a: TrainArgs) -> anyhow::Result<i32> {
 ///
 /// Example: qean sweep --config configs/sweeps/tiny-ablation.toml --data synth
 #[derive(Args, Debug)]
+#[command(about = "Run a sweep of training runs (variants × seeds × grid) and summarise it")]
 pub struct SweepArgs {
     /// Sweep file (see configs/sweeps/).
     #[arg(long)]
@@ -267,6 +269,7 @@ fn evaluate_checkpoint(run_dir: &Path, frames: usize) -> anyhow::Result<Vec<(Str
 /// dotted name (docs/weights.md lists them with shapes, layouts and roles; Burn's Linear weight is
 /// [in, out]). The header holds the model config, the step and the params_hash.
 #[derive(Args, Debug)]
+#[command(about = "Export a checkpoint's weights as one safetensors file")]
 pub struct ExportArgs {
     /// A run directory (its newest checkpoint) or R/checkpoints/step-N.
     pub checkpoint: PathBuf,
