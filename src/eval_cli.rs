@@ -75,9 +75,14 @@ pub struct Args {
     #[arg(long, requires = "run")]
     pub baselines: bool,
     /// Directory of the music, <music ID>.wav (or .ogg/.mp3/.flac); beats tracked from the audio as
-    /// --ba-music-beats says. Non-AIST music IDs are not recognised.
+    /// --ba-music-beats says. Names without an AIST++ music ID need --pairing (or NAME.music).
     #[arg(long, conflicts_with = "beats")]
     pub music: Option<PathBuf>,
+    /// Directory mode: a CSV of `generated,music` rows pairing generated files whose names hold no
+    /// AIST++ music ID with their music (an audio file's stem in --music, or a key of --beats). A
+    /// `NAME.music` file beside a generated motion does the same for one file.
+    #[arg(long, conflicts_with = "run")]
+    pub pairing: Option<PathBuf>,
     /// JSON file of precomputed music beats: {"mBR0": [frame, ...], ...} at 60 FPS.
     #[arg(long)]
     pub beats: Option<PathBuf>,
@@ -211,6 +216,7 @@ impl Args {
             json: self.json.clone(),
             label: self.label.clone(),
             root: self.fk_root.fk(),
+            pairing: self.pairing.clone(),
         })
     }
 }

@@ -205,3 +205,89 @@ fn both_metrics_modes_by_default() {
     );
     assert_eq!(file.reports[0].beat_align, None);
 }
+
+/// Generated files named freely (another system's outputs on other music), paired by a CSV or by
+/// `.music` sidecars, score BeatAlign against the music they name; the same files without a pairing
+/// are refused as before (the AIST++ name rule stays the default).
+#[test]
+fn generated_files_with_any_names_are_scored_through_an_explicit_pairing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    fixture(d);
+    let free = d.join("free");
+    std::fs::create_dir_all(&free).unwrap();
+    for (i, name) in ["take one", "take-two", "x3"].iter().enumerate() {
+        write_npy(
+            &free.join(format!("{name}.joints.npy")),
+            &synthetic_motion(20 + i as u64, 180),
+            false,
+            false,
+        );
+    }
+    let args = |extra: &[&str]| {
+        let mut v = vec![
+            "qean-eval".to_string(),
+            "--generated".into(),
+            free.to_string_lossy().into_owned(),
+            "--reference".into(),
+            d.join("ref").to_string_lossy().into_owned(),
+            "--beats".into(),
+            d.join("beats.json").to_string_lossy().into_owned(),
+            "--seed-frames".into(),
+            "30".into(),
+            "--metrics-mode".into(),
+            "reference".into(),
+        ];
+        v.extend(extra.iter().map(|s| s.to_string()));
+        Args::parse_from(v)
+    };
+    // No pairing: the name rule refuses the files, naming one and the ways out.
+    let e = format!("{:#}", run(&args(&[])).unwrap_err());
+    assert!(
+        e.contains("no AIST++ music ID") && e.contains("--pairing"),
+        "{e}"
+    );
+
+    let csv = d.join("pairs.csv");
+    std::fs::write(
+        &csv,
+        "generated,music\ntake one.joints.npy,mLO1\ntake-two,mLO2\nx3.npy,mLO2\n",
+    )
+    .unwrap();
+    let (file, _) = run(&args(&["--pairing", csv.to_str().unwrap()])).unwrap();
+    let r = &file.reports[0];
+    assert_eq!((r.n_generated, r.n_beat_align), (3, 3));
+    let ids: Vec<_> = r.sequences.iter().map(|s| s.music_id.clone()).collect();
+    assert_eq!(
+        ids,
+        [
+            Some("mLO1".into()),
+            Some("mLO2".into()),
+            Some("mLO2".into())
+        ]
+    );
+
+    // Sidecars do the same, file by file.
+    for (name, key) in [("take one", "mLO1"), ("take-two", "mLO2"), ("x3", "mLO2")] {
+        std::fs::write(free.join(format!("{name}.music")), format!("{key}\n")).unwrap();
+    }
+    let (side, _) = run(&args(&[])).unwrap();
+    assert_eq!(side.reports[0].beat_align, r.beat_align);
+
+    // A malformed pairing file or a row naming no generated file: one line naming the file.
+    std::fs::write(&csv, "generated,music\ntake one,mLO1,extra\n").unwrap();
+    let e = format!(
+        "{:#}",
+        run(&args(&["--pairing", csv.to_str().unwrap()])).unwrap_err()
+    );
+    assert!(e.contains("pairs.csv line 2: expected two columns"), "{e}");
+    std::fs::write(&csv, "nobody.npy,mLO1\n").unwrap();
+    let e = format!(
+        "{:#}",
+        run(&args(&["--pairing", csv.to_str().unwrap()])).unwrap_err()
+    );
+    assert!(
+        e.contains("\"nobody\", which is not among the generated motions"),
+        "{e}"
+    );
+}

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{value_name, EvalConfig, MusicBeatSource};
 use crate::io::{load_joints_dir, read_beats_json, write_json_atomic};
-use crate::protocol::evaluate;
+use crate::protocol::{evaluate, music_key};
 use crate::report::{render_markdown, MetricsReport};
 
 /// What to evaluate in directory mode.
@@ -33,6 +33,68 @@ pub struct DirRequest {
     pub label: String,
     /// Root convention of forward kinematics for .pkl motions.
     pub root: qean_motion::FkRoot,
+    /// A CSV of `generated,music` rows pairing generated files (names or stems) with music keys (an
+    /// audio file's stem in `music`, or a key of `beats`), for names without an AIST++ music ID.
+    pub pairing: Option<PathBuf>,
+}
+
+/// The rows of a pairing file: generated name (a `.joints`/extension suffix dropped) → music key.
+pub fn read_pairing(path: &Path) -> anyhow::Result<HashMap<String, String>> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let mut map = HashMap::new();
+    for (k, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || (k == 0 && line.replace(' ', "") == "generated,music") {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let [generated, music] = fields[..] else {
+            bail!(
+                "{} line {}: expected two columns `generated,music`, got {:?}",
+                path.display(),
+                k + 1,
+                line
+            );
+        };
+        if generated.is_empty() || music.is_empty() {
+            bail!("{} line {}: an empty column", path.display(), k + 1);
+        }
+        map.insert(sequence_name(generated).to_string(), music.to_string());
+    }
+    Ok(map)
+}
+
+/// A file name as a sequence name: no directory, no motion extension, no `.joints` suffix.
+fn sequence_name(file: &str) -> &str {
+    let base = file.rsplit('/').next().unwrap_or(file);
+    let stem = [".npy", ".pkl", ".bvh"]
+        .iter()
+        .find_map(|e| base.strip_suffix(e))
+        .unwrap_or(base);
+    stem.strip_suffix(".joints").unwrap_or(stem)
+}
+
+/// Sets each generated sequence's music from the pairing; a row naming no loaded sequence is an error.
+fn apply_pairing(
+    generated: &mut [crate::positions::Sequence],
+    pairing: &HashMap<String, String>,
+    path: &Path,
+) -> anyhow::Result<()> {
+    for name in pairing.keys() {
+        if !generated.iter().any(|s| &s.name == name) {
+            bail!(
+                "{}: pairs {name:?}, which is not among the generated motions",
+                path.display()
+            );
+        }
+    }
+    for s in generated {
+        if let Some(m) = pairing.get(&s.name) {
+            s.music = Some(m.clone());
+        }
+    }
+    Ok(())
 }
 
 /// What `--json` writes: one report per metrics mode.
@@ -45,13 +107,17 @@ pub struct EvaluationFile {
 /// markdown table.
 pub fn evaluate_dirs(req: &DirRequest) -> anyhow::Result<(EvaluationFile, String)> {
     let root = req.root;
-    let generated = load_joints_dir(&req.generated, root).context("loading generated motions")?;
+    let mut generated =
+        load_joints_dir(&req.generated, root).context("loading generated motions")?;
+    if let Some(path) = &req.pairing {
+        apply_pairing(&mut generated, &read_pairing(path)?, path)?;
+    }
     let reference = load_joints_dir(&req.reference, root).context("loading reference motions")?;
     let beats: Option<(PathBuf, HashMap<String, Vec<usize>>)> = match (&req.beats, &req.music) {
         (Some(p), _) => Some((p.clone(), read_beats_json(p)?)),
         (None, Some(dir)) => {
-            let names = generated.iter().chain(&reference).map(|s| s.name.as_str());
-            Some((dir.clone(), music_beats(dir, names, req.ba_music_beats)?))
+            let keys = generated.iter().chain(&reference).filter_map(music_key);
+            Some((dir.clone(), music_beats(dir, keys, req.ba_music_beats)?))
         }
         (None, None) => None,
     };
@@ -90,20 +156,21 @@ pub fn evaluate_dirs(req: &DirRequest) -> anyhow::Result<(EvaluationFile, String
     Ok((file, table))
 }
 
-/// Music beats of every AIST++ music ID among `names`, from `dir/<music ID>.(wav|ogg|mp3|flac)`:
+/// Music beats of every music key (an AIST++ music ID or an audio file's stem), from
+/// `dir/<key>.(wav|ogg|mp3|flac)`:
 /// Bailando's HPSS-percussive beats (start BPM 120), or column 34 of our 35-D features (start BPM from the
 /// music ID's tempo prior). IDs without an audio file are left out (their sequences are then excluded from
 /// BeatAlign with a logged reason).
-pub fn music_beats<'a>(
+pub fn music_beats(
     dir: &Path,
-    names: impl Iterator<Item = &'a str>,
+    keys: impl Iterator<Item = String>,
     source: MusicBeatSource,
 ) -> anyhow::Result<HashMap<String, Vec<usize>>> {
     use qean_audio as audio;
     if !dir.is_dir() {
         bail!("{}: music directory does not exist", dir.display());
     }
-    let mut ids: Vec<String> = names.filter_map(qean_aistpp::names::music_id_of).collect();
+    let mut ids: Vec<String> = keys.collect();
     ids.sort();
     ids.dedup();
     let mut out = HashMap::new();

@@ -44,7 +44,8 @@ pub fn read_joints(path: &Path, root: FkRoot) -> Result<Vec<Frame>> {
 }
 
 /// Every motion (`.npy`, `.pkl`, `.bvh`) in `dir`, sorted by name, named by file stem (a `.joints` suffix,
-/// as `qean sample` writes, is dropped).
+/// as `qean sample` writes, is dropped). A `<name>.music` file beside a motion names its music (one line:
+/// a music ID or an audio file's stem).
 pub fn load_joints_dir(dir: &Path, root: FkRoot) -> Result<Vec<Sequence>> {
     let entries = std::fs::read_dir(dir).map_err(|e| Error::file(dir, e.to_string()))?;
     let mut paths: Vec<PathBuf> = Vec::new();
@@ -52,6 +53,7 @@ pub fn load_joints_dir(dir: &Path, root: FkRoot) -> Result<Vec<Sequence>> {
         let p = e.map_err(|e| Error::file(dir, e.to_string()))?.path();
         match p.extension().and_then(|x| x.to_str()) {
             Some("npy") | Some("pkl") | Some("bvh") => paths.push(p),
+            Some("music") => {} // a sidecar naming a motion's music, read below
             _ if p.is_file() => warn!(file = %p.display(), "ignored: not a motion file"),
             _ => {}
         }
@@ -74,7 +76,18 @@ pub fn load_joints_dir(dir: &Path, root: FkRoot) -> Result<Vec<Sequence>> {
             warn!(file = %p.display(), "ignored: another file of sequence {name} was loaded");
             continue;
         }
-        seqs.push(Sequence::new(name, read_joints(p, root)?));
+        let mut seq = Sequence::new(name, read_joints(p, root)?);
+        let sidecar = dir.join(format!("{name}.music"));
+        if sidecar.is_file() {
+            let key = std::fs::read_to_string(&sidecar)
+                .map_err(|e| Error::file(&sidecar, e.to_string()))?;
+            let key = key.trim();
+            if key.is_empty() || key.contains('\n') {
+                return Err(Error::file(&sidecar, "expected one line: the music's key"));
+            }
+            seq.music = Some(key.to_string());
+        }
+        seqs.push(seq);
     }
     Ok(seqs)
 }

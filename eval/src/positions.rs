@@ -13,6 +13,10 @@ pub type Frame = [[f64; 3]; N_JOINTS];
 pub struct Sequence {
     pub name: String,
     pub joints: Vec<Frame>,
+    /// The music this motion dances to, when its name does not say (a pairing file or a `.music`
+    /// sidecar): the key of its beats (a music ID or an audio file's stem). `None`: the AIST++ music ID
+    /// in the name.
+    pub music: Option<String>,
 }
 
 impl Sequence {
@@ -20,6 +24,7 @@ impl Sequence {
         Sequence {
             name: name.into(),
             joints,
+            music: None,
         }
     }
 }

@@ -53,10 +53,18 @@ fn pick(s: BeatScores, variant: BaVariant) -> Option<f64> {
     }
 }
 
-fn music_id(name: &str) -> Result<String> {
-    qean_aistpp::names::music_id_of(name).ok_or_else(|| Error::Sequence {
-        name: name.to_string(),
-        message: "no AIST++ music ID (e.g. mBR0) in the name, needed to find its music beats"
+/// The key of a sequence's music beats: its explicit pairing, else the AIST++ music ID in its name.
+pub fn music_key(s: &Sequence) -> Option<String> {
+    s.music
+        .clone()
+        .or_else(|| qean_aistpp::names::music_id_of(&s.name))
+}
+
+fn music_id(s: &Sequence) -> Result<String> {
+    music_key(s).ok_or_else(|| Error::Sequence {
+        name: s.name.clone(),
+        message: "no AIST++ music ID (e.g. mBR0) in the name and no pairing (--pairing FILE or a \
+                  NAME.music file), needed to find its music beats"
             .into(),
     })
 }
@@ -206,7 +214,7 @@ fn beat_scores(
     if let Some(lookup) = music_beats {
         let ids: Vec<String> = gen
             .iter()
-            .map(|(s, _)| music_id(&s.name))
+            .map(|(s, _)| music_id(s))
             .collect::<Result<_>>()?;
         let mut beats: HashMap<&str, Vec<usize>> = HashMap::new();
         for id in &ids {

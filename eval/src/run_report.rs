@@ -92,6 +92,7 @@ pub fn frozen_dances(generated: &[Sequence], seed_frames: usize) -> Vec<Sequence
             Sequence {
                 name: s.name.clone(),
                 joints,
+                music: s.music.clone(),
             }
         })
         .collect()
@@ -120,6 +121,7 @@ pub fn repaired_dances(generated: &[Sequence], shift: usize) -> Option<Vec<Seque
             Sequence {
                 name: fields.join("_"),
                 joints: s.joints.clone(),
+                music: None,
             }
         })
         .collect();
@@ -251,6 +253,7 @@ mod tests {
         Sequence {
             name: name.to_string(),
             joints,
+            music: None,
         }
     }
 

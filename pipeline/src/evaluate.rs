@@ -123,10 +123,13 @@ pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
         write_generated(&out_dir, &pairs, &dances, &opts, seed_frames, req.root)?;
     let reference = reference_set(&ds, req.root)?;
 
-    let mut ba_names: Vec<&str> = generated.iter().map(|s| s.name.as_str()).collect();
-    ba_names.extend(names.iter().map(String::as_str));
+    let keys = generated
+        .iter()
+        .map(|s| s.name.as_str())
+        .chain(names.iter().map(String::as_str))
+        .filter_map(qean_aistpp::names::music_id_of);
     let wav = req.data.join("wav");
-    let beats = music_beats(&wav, ba_names.into_iter(), req.ba_music_beats)?;
+    let beats = music_beats(&wav, keys, req.ba_music_beats)?;
     let lookup = |id: &str| -> qean_eval::Result<Vec<usize>> {
         beats
             .get(id)
@@ -334,6 +337,7 @@ fn write_generated(
         generated.push(Sequence {
             name: name.clone(),
             joints: frames_of(points),
+            music: None,
         });
         pairings.push(Pairing {
             name: name.clone(),
@@ -360,6 +364,7 @@ fn reference_set(ds: &Dataset, root: qean_motion::FkRoot) -> anyhow::Result<Vec<
         reference.push(Sequence {
             name: name.clone(),
             joints: frames_of(m.joints(root)),
+            music: None,
         });
     }
     Ok(reference)
