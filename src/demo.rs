@@ -407,6 +407,7 @@ fn dance(
             data: data.to_path_buf(),
             name: first,
         },
+        qean_eval::run_report::SeedStart::Zero,
         ck,
     )?;
     let pb = ProgressBar::new(frames as u64);

@@ -10,7 +10,7 @@ use qean_eval::config::{
 };
 use qean_eval::curves::CurvesRequest;
 use qean_eval::dirs::{evaluate_dirs, DirRequest};
-use qean_eval::run_report::Protocol;
+use qean_eval::run_report::{Protocol, SeedStart};
 use qean_models::autoregress::AudioPad;
 use qean_pipeline::evaluate::{evaluate_run, RunEvalRequest, SamplingOverrides};
 
@@ -41,6 +41,11 @@ pub struct Args {
     /// Checkpoint mode: paired (each motion with its own music) or unpaired (mint: 10 music draws per motion).
     #[arg(long, value_enum, default_value_t = Protocol::Paired)]
     pub protocol: Protocol,
+    /// Checkpoint mode: where each seed starts in its ground-truth motion: zero (mint: the first
+    /// frames) or random[:SEED] (QEAN's "random motion seeds": a seeded uniform draw per sequence;
+    /// the music starts at the same frame).
+    #[arg(long, default_value = "zero", requires = "run")]
+    pub seed_start: SeedStart,
     /// Checkpoint mode: keep generating past the end of the music by repeating its last frame.
     #[arg(long)]
     pub audio_pad_edge: bool,
@@ -178,6 +183,7 @@ impl Args {
             checkpoint: self.checkpoint.clone(),
             data,
             protocol: self.protocol,
+            seed_start: self.seed_start,
             max_frames: self.max_frames,
             sampling: SamplingOverrides {
                 feedback_project: (self.feedback_project || self.raw_feedback)

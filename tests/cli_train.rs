@@ -488,3 +488,86 @@ fn a_diverging_run_stops_cleanly_and_keeps_only_finite_checkpoints() {
     let log = std::fs::read_to_string(run.join("train.log")).unwrap();
     assert!(log.contains("training diverged"), "{log}");
 }
+
+/// `--seed-start random:SEED` (SPEC §1.6, QEAN's "random motion seeds") in checkpoint-mode evaluation and
+/// in `qean sample`: seeded draws recorded in report.json, the default staying mint's frame 0.
+#[test]
+fn seeds_start_at_zero_or_at_seeded_random_frames() {
+    let d = tempfile::tempdir().unwrap();
+    let data = dataset(d.path());
+    let run = d.path().join("run");
+    run_ok(&mut train_cmd(
+        "tiny/fact.toml",
+        &data,
+        &run,
+        &["train.steps=2", "train.checkpoint_every=2"],
+    ));
+    let eval = |extra: &[&str]| {
+        let mut c = qean();
+        c.args(["eval", "--run"])
+            .arg(&run)
+            .arg("--data")
+            .arg(&data)
+            .args(["--max-frames", "30", "--metrics-mode", "reference"])
+            .args(extra);
+        run_ok(&mut c);
+    };
+    let starts = |dir: &str| -> (String, Vec<u64>) {
+        let text = std::fs::read_to_string(run.join("eval").join(dir).join("report.json")).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let starts = v["pairings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p["seed_start"].as_u64().unwrap())
+            .collect();
+        (v["seed_start"].as_str().unwrap().to_string(), starts)
+    };
+    eval(&[]);
+    let (mode, zero) = starts("step-2");
+    assert_eq!(mode, "zero");
+    assert!(zero.iter().all(|&s| s == 0), "{zero:?}");
+    eval(&["--seed-start", "random:5", "--tag", "rnd"]);
+    let (mode, random) = starts("step-2-rnd");
+    assert_eq!(mode, "random:5");
+    assert_eq!(random.len(), zero.len());
+    assert!(random.iter().any(|&s| s > 0), "{random:?}");
+    let md = std::fs::read_to_string(run.join("eval/step-2-rnd/report.md")).unwrap();
+    assert!(md.contains("from a random start (random:5)"), "{md}");
+    let bad = qean()
+        .args(["eval", "--run"])
+        .arg(&run)
+        .arg("--data")
+        .arg(&data)
+        .args(["--seed-start", "sometimes"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        err.contains("expected zero, random or random:SEED"),
+        "{err}"
+    );
+
+    // qean sample: the seed's first frame comes from another place in the sequence.
+    let ds = qean_aistpp::dataset::Dataset::open(&data).unwrap();
+    let name = ds.split(qean_aistpp::dataset::Split::Test).remove(0);
+    let song = shared().join("music/sorohanro_-_solo-trumpet-06.ogg");
+    let sample = |start: &str, out: &str| {
+        let dir = d.path().join(out);
+        run_ok(
+            qean()
+                .args(["sample", "--run"])
+                .arg(&run)
+                .arg("--music")
+                .arg(&song)
+                .arg("--data")
+                .arg(&data)
+                .args(["--sequence", &name, "--seed-start", start, "--frames", "10"])
+                .args(["--name", "s", "--out"])
+                .arg(&dir),
+        );
+        qean_io::npy::read(&dir.join("s.joints.npy")).unwrap().data[..72].to_vec()
+    };
+    assert_ne!(sample("zero", "a"), sample("random:5", "b"));
+}

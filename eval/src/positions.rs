@@ -17,6 +17,9 @@ pub struct Sequence {
     /// sidecar): the key of its beats (a music ID or an audio file's stem). `None`: the AIST++ music ID
     /// in the name.
     pub music: Option<String>,
+    /// The music frame of this motion's frame 0 (a seed taken from inside a ground-truth motion
+    /// starts its dance that far into the music), added to the configuration's `music_offset`.
+    pub music_offset: usize,
 }
 
 impl Sequence {
@@ -25,6 +28,7 @@ impl Sequence {
             name: name.into(),
             joints,
             music: None,
+            music_offset: 0,
         }
     }
 }

@@ -226,10 +226,11 @@ fn beat_scores(
             .par_iter()
             .zip(&ids)
             .map(|((s, len), id)| {
+                let offset = cfg.music_offset + s.music_offset;
                 let shifted: Vec<usize> = beats[id.as_str()]
                     .iter()
-                    .filter(|&&b| b >= cfg.music_offset)
-                    .map(|&b| b - cfg.music_offset)
+                    .filter(|&&b| b >= offset)
+                    .map(|&b| b - offset)
                     .collect();
                 Some(score_generated(
                     &s.joints,

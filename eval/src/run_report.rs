@@ -27,6 +27,71 @@ pub enum Protocol {
     Unpaired,
 }
 
+/// Where each seed starts in its ground-truth motion (SPEC §1.6): frame 0 (mint), or uniformly at
+/// random in `[0, T − seed_frames]` from a seeded generator, one draw per sequence in protocol order
+/// (QEAN's "random motion seeds"). Written `zero`, `random` (seed 0) or `random:SEED`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SeedStart {
+    #[default]
+    Zero,
+    Random(u64),
+}
+
+impl SeedStart {
+    /// The start frame of each motion of these lengths (each at least `seed_frames` long).
+    pub fn starts(self, lengths: &[usize], seed_frames: usize) -> Vec<usize> {
+        match self {
+            SeedStart::Zero => vec![0; lengths.len()],
+            SeedStart::Random(seed) => {
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+                lengths
+                    .iter()
+                    .map(|&t| rng.random_range(0..=t.saturating_sub(seed_frames)))
+                    .collect()
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for SeedStart {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SeedStart::Zero => write!(f, "zero"),
+            SeedStart::Random(seed) => write!(f, "random:{seed}"),
+        }
+    }
+}
+
+impl std::str::FromStr for SeedStart {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "zero" => Ok(SeedStart::Zero),
+            "random" => Ok(SeedStart::Random(0)),
+            _ => s
+                .strip_prefix("random:")
+                .and_then(|n| n.parse().ok())
+                .map(SeedStart::Random)
+                .ok_or_else(|| format!("{s:?}: expected zero, random or random:SEED")),
+        }
+    }
+}
+
+impl Serialize for SeedStart {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&self.to_string())
+    }
+}
+
+impl<'de> Deserialize<'de> for SeedStart {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        String::deserialize(d)?
+            .parse()
+            .map_err(serde::de::Error::custom)
+    }
+}
+
 /// One generated sequence of the protocol.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Pairing {
@@ -37,6 +102,9 @@ pub struct Pairing {
     pub music_id: String,
     /// Frames generated after the seed.
     pub generated: usize,
+    /// The seed's first frame in the ground-truth motion (and the music frame the dance starts at).
+    #[serde(default)]
+    pub seed_start: usize,
 }
 
 /// report.json of checkpoint mode.
@@ -56,6 +124,9 @@ pub struct RunReport {
     /// the option existed were sampled without it).
     #[serde(default)]
     pub seam_frames: usize,
+    /// Where the seeds started (`zero` for reports written before the option existed).
+    #[serde(default)]
+    pub seed_start: SeedStart,
     pub pairings: Vec<Pairing>,
     pub reports: Vec<MetricsReport>,
     /// With `--baselines`: the chance baselines, scored like the first report.
@@ -93,6 +164,7 @@ pub fn frozen_dances(generated: &[Sequence], seed_frames: usize) -> Vec<Sequence
                 name: s.name.clone(),
                 joints,
                 music: s.music.clone(),
+                music_offset: s.music_offset,
             }
         })
         .collect()
@@ -122,6 +194,7 @@ pub fn repaired_dances(generated: &[Sequence], shift: usize) -> Option<Vec<Seque
                 name: fields.join("_"),
                 joints: s.joints.clone(),
                 music: None,
+                music_offset: s.music_offset,
             }
         })
         .collect();
@@ -254,6 +327,7 @@ mod tests {
             name: name.to_string(),
             joints,
             music: None,
+            music_offset: 0,
         }
     }
 
@@ -293,5 +367,38 @@ mod tests {
         assert!(repaired_dances(&g, 3).is_none());
         assert!(repaired_dances(&g, 0).is_none());
         assert!(repaired_dances(&g[..1], 1).is_none());
+    }
+
+    #[test]
+    fn seed_starts_are_zero_or_seeded_draws_inside_each_motion() {
+        assert_eq!(SeedStart::Zero.starts(&[500, 130], 120), vec![0, 0]);
+        let r = SeedStart::Random(7);
+        let a = r.starts(&[500, 130, 120, 1000], 120);
+        assert_eq!(a, r.starts(&[500, 130, 120, 1000], 120), "deterministic");
+        assert!(
+            a[0] <= 380 && a[1] <= 10 && a[2] == 0 && a[3] <= 880,
+            "{a:?}"
+        );
+        assert_ne!(a, SeedStart::Random(8).starts(&[500, 130, 120, 1000], 120));
+        for s in ["zero", "random", "random:42"] {
+            assert_eq!(
+                s.parse::<SeedStart>()
+                    .unwrap()
+                    .to_string()
+                    .split(':')
+                    .next(),
+                s.split(':').next()
+            );
+        }
+        assert_eq!("random".parse::<SeedStart>(), Ok(SeedStart::Random(0)));
+        assert!("random:x"
+            .parse::<SeedStart>()
+            .unwrap_err()
+            .contains("random:SEED"));
+        let json = serde_json::to_string(&SeedStart::Random(3)).unwrap();
+        assert_eq!(
+            serde_json::from_str::<SeedStart>(&json).unwrap(),
+            SeedStart::Random(3)
+        );
     }
 }

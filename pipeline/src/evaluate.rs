@@ -17,7 +17,7 @@ use qean_eval::protocol::evaluate;
 use qean_eval::report::{render_markdown, MetricsReport};
 use qean_eval::run_report::{
     average_beat_align, frames_of, frozen_dances, pairings, repaired_dances, Baselines, Pairing,
-    Protocol, RunReport,
+    Protocol, RunReport, SeedStart,
 };
 use qean_models::autoregress::{AudioPad, SampleOptions, SampleRequest};
 use qean_motion::motion::Motion;
@@ -49,6 +49,8 @@ pub struct RunEvalRequest {
     /// The AIST++-layout dataset (motions/, wav/, splits).
     pub data: PathBuf,
     pub protocol: Protocol,
+    /// Where each seed starts in its ground-truth motion (frame 0 by default, as mint).
+    pub seed_start: SeedStart,
     /// Generated frames per sequence.
     pub max_frames: usize,
     pub sampling: SamplingOverrides,
@@ -75,6 +77,7 @@ impl RunEvalRequest {
             checkpoint: None,
             data: data.into(),
             protocol: Protocol::Paired,
+            seed_start: SeedStart::Zero,
             max_frames: 1200,
             sampling: SamplingOverrides::default(),
             configs: [MetricsMode::Reference, MetricsMode::Corrected]
@@ -116,11 +119,11 @@ pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
     let config = &ck.config;
     let seed_frames = config.model.motion_len;
     let pairs = pairings(&names, req.protocol);
-    let requests = sample_requests(&ds, &pairs, config)?;
+    let (requests, starts) = sample_requests(&ds, &pairs, config, req.seed_start)?;
     let opts = sample_options(req, config)?;
     let dances = sample_dances(req, &ck, &requests, &opts)?;
     let (generated, pairings_out) =
-        write_generated(&out_dir, &pairs, &dances, &opts, seed_frames, req.root)?;
+        write_generated(&out_dir, &pairs, &dances, &starts, &opts, req.root)?;
     let reference = reference_set(&ds, req.root)?;
 
     let keys = generated
@@ -162,6 +165,7 @@ pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
         feedback_project: opts.feedback_project,
         ensemble: opts.ensemble,
         seam_frames: opts.seam_frames,
+        seed_start: req.seed_start,
         pairings: pairings_out,
         reports,
         baselines,
@@ -224,15 +228,17 @@ fn protocol_sequences(ds: &Dataset) -> anyhow::Result<Vec<String>> {
     Ok(names)
 }
 
-/// One sampler request per pairing: the motion's first frames as the seed, the music's features.
+/// One sampler request per pairing: the seed is the motion's frames from its start (see [`SeedStart`]),
+/// the music's features from the same frame on. Returns the requests and the starts.
 fn sample_requests(
     ds: &Dataset,
     pairs: &[(String, String, String)],
     config: &qean_train::RunConfig,
-) -> anyhow::Result<Vec<SampleRequest>> {
+    seed_start: SeedStart,
+) -> anyhow::Result<(Vec<SampleRequest>, Vec<usize>)> {
     let (layout, seed_frames) = (config.layout(), config.model.motion_len);
-    let mut requests = Vec::new();
-    for (motion, music, _) in pairs {
+    let mut motions = Vec::new();
+    for (motion, _, _) in pairs {
         let path = ds.motion_path(motion);
         let m = Motion::read_pkl(&path)?;
         if m.frames < seed_frames {
@@ -242,15 +248,21 @@ fn sample_requests(
                 m.frames
             );
         }
-        let (audio, _) = feature_cache::load(ds, music)?;
+        motions.push(m);
+    }
+    let lengths: Vec<usize> = motions.iter().map(|m| m.frames).collect();
+    let starts = seed_start.starts(&lengths, seed_frames);
+    let mut requests = Vec::new();
+    for (((_, music, _), m), &s) in pairs.iter().zip(&motions).zip(&starts) {
+        let (audio, frames) = feature_cache::load(ds, music)?;
+        let dim = qean_aistpp::windows::AUDIO_DIM;
+        let audio = audio[s.min(frames) * dim..].to_vec();
         requests.push(SampleRequest {
-            seed: m.slice(0, seed_frames).to_layout(layout),
-            audio: config
-                .recipe
-                .model_audio(audio, qean_aistpp::windows::AUDIO_DIM),
+            seed: m.slice(s, s + seed_frames).to_layout(layout),
+            audio: config.recipe.model_audio(audio, dim),
         });
     }
-    Ok(requests)
+    Ok((requests, starts))
 }
 
 /// The sampler's options: the request's overrides, else the run's recipe.
@@ -316,8 +328,8 @@ fn write_generated(
     out_dir: &Path,
     pairs: &[(String, String, String)],
     dances: &[Vec<f32>],
+    starts: &[usize],
     opts: &SampleOptions,
-    seed_frames: usize,
     root: qean_motion::FkRoot,
 ) -> anyhow::Result<(Vec<Sequence>, Vec<Pairing>)> {
     let joints_dir = out_dir.join("generated");
@@ -326,7 +338,8 @@ fn write_generated(
     let d = opts.layout.dim();
     let mut generated = Vec::new();
     let mut pairings = Vec::new();
-    for ((motion, music, name), dance) in pairs.iter().zip(dances) {
+    let seed_frames = opts.spec.motion_len;
+    for (((motion, music, name), dance), &start) in pairs.iter().zip(dances).zip(starts) {
         let m = Motion::from_layout(dance, opts.layout)
             .map_err(|e| anyhow::anyhow!("generated {name}: {e}"))?;
         let points = m.joints(root);
@@ -338,12 +351,14 @@ fn write_generated(
             name: name.clone(),
             joints: frames_of(points),
             music: None,
+            music_offset: start,
         });
         pairings.push(Pairing {
             name: name.clone(),
             motion: motion.clone(),
             music_id: music.clone(),
             generated: dance.len() / d - seed_frames,
+            seed_start: start,
         });
     }
     let lengths: Vec<usize> = pairings.iter().map(|p| p.generated).collect();
@@ -361,11 +376,7 @@ fn reference_set(ds: &Dataset, root: qean_motion::FkRoot) -> anyhow::Result<Vec<
     let mut reference = Vec::new();
     for name in ds.all_sequences()? {
         let m = Motion::read_pkl(&ds.motion_path(&name))?;
-        reference.push(Sequence {
-            name: name.clone(),
-            joints: frames_of(m.joints(root)),
-            music: None,
-        });
+        reference.push(Sequence::new(name.clone(), frames_of(m.joints(root))));
     }
     Ok(reference)
 }
@@ -446,10 +457,14 @@ fn write_report(
     let table = render_markdown(&rows);
     write_json_atomic(&out_dir.join("report.json"), report)?;
     let md = format!(
-        "# Evaluation of {} ({:?} protocol, {} sequences, seed = first {seed_frames} GT frames, up to {} generated frames, {} feedback, {} pass(es) per frame, seed's end eased over {} frames)\n\n{table}",
+        "# Evaluation of {} ({:?} protocol, {} sequences, seed = {}, up to {} generated frames, {} feedback, {} pass(es) per frame, seed's end eased over {} frames)\n\n{table}",
         report.checkpoint.display(),
         report.protocol,
         report.pairings.len(),
+        match report.seed_start {
+            SeedStart::Zero => format!("first {seed_frames} GT frames"),
+            s => format!("{seed_frames} GT frames from a random start ({s})"),
+        },
         report.frames,
         if report.feedback_project { "projected" } else { "raw" },
         report.ensemble,

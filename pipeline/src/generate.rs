@@ -13,6 +13,7 @@ use qean_motion::fk::FkRoot;
 use qean_motion::motion::Motion;
 use qean_render::export::{export_dance, ExportOptions, ExportPaths};
 
+use qean_eval::run_report::SeedStart;
 use qean_train::checkpoint::Checkpoint;
 
 /// Where the seed motion comes from.
@@ -70,7 +71,7 @@ pub fn load_song(path: &Path, name: Option<&str>, audio_len: usize) -> Result<So
 }
 
 /// The seed: `motion_len` frames in the model's layout.
-pub fn seed_motion(source: &SeedSource, ck: &Checkpoint) -> Result<Vec<f32>> {
+pub fn seed_motion(source: &SeedSource, start: SeedStart, ck: &Checkpoint) -> Result<Vec<f32>> {
     let n = ck.config.model.motion_len;
     let layout = ck.config.layout();
     let (motion, path) = match source {
@@ -94,7 +95,8 @@ pub fn seed_motion(source: &SeedSource, ck: &Checkpoint) -> Result<Vec<f32>> {
             ),
         ));
     }
-    Ok(motion.slice(0, n).to_layout(layout))
+    let s = start.starts(&[motion.frames], n)[0];
+    Ok(motion.slice(s, s + n).to_layout(layout))
 }
 
 /// Sampling settings of `qean sample`.

@@ -46,6 +46,10 @@ pub struct SampleArgs {
     /// Seed from a dataset sequence: its name (with --data).
     #[arg(long, requires = "data")]
     pub sequence: Option<String>,
+    /// Where the seed starts in the seed motion: zero (its first frames) or random[:SEED] (a seeded
+    /// uniform draw, QEAN's "random motion seeds"). Ignored for the standing pose.
+    #[arg(long, default_value = "zero")]
+    pub seed_start: qean_eval::run_report::SeedStart,
     /// Frames to generate after the seed (at 60 fps; mint: 1200 = 20 s).
     #[arg(long, default_value_t = 1200)]
     pub frames: usize,
@@ -106,7 +110,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         },
         _ => SeedSource::Standing,
     };
-    let seed = generate::seed_motion(&source, &ck)?;
+    let seed = generate::seed_motion(&source, a.seed_start, &ck)?;
     let opts = GenerateOptions {
         frames: a.frames,
         audio_pad: if a.audio_pad == "edge" {
