@@ -429,7 +429,7 @@ fn dance(
             ensemble_decay: ck.config.recipe.ensemble_decay,
             seam_frames: ck.config.recipe.seam_frames,
             render: true,
-            backend: ck.config.train.backend.clone(),
+            backend: ck.config.train.backend,
         },
         &dir,
         |done, total| {

@@ -46,8 +46,11 @@ pub struct Args {
     /// the music starts at the same frame).
     #[arg(long, default_value = "zero", requires = "run")]
     pub seed_start: SeedStart,
-    /// Checkpoint mode: keep generating past the end of the music by repeating its last frame.
-    #[arg(long)]
+    /// Checkpoint mode: when the music ends first, stop (mint) or edge (repeat its last frame).
+    #[arg(long, value_enum, default_value_t = AudioPad::Stop)]
+    pub audio_pad: AudioPad,
+    /// The same as --audio-pad edge (the older spelling).
+    #[arg(long, hide = true)]
     pub audio_pad_edge: bool,
     /// Checkpoint mode: project fed-back rotations to SO(3) while sampling (default: the run's
     /// recipe.feedback_project).
@@ -72,8 +75,8 @@ pub struct Args {
     #[arg(long, requires = "run")]
     pub tag: Option<String>,
     /// Checkpoint mode: backend for sampling (default: the run's).
-    #[arg(long)]
-    pub backend: Option<String>,
+    #[arg(long, value_enum)]
+    pub backend: Option<qean_models::backend::Backend>,
     /// Checkpoint mode: also score two chance baselines on the same protocol: "frozen" (each seed's
     /// last frame held for the generated length) and "random pairing" (each generated dance scored
     /// against another sequence's music). A trained model should beat both.
@@ -191,11 +194,11 @@ impl Args {
                 ensemble: self.ensemble,
                 ensemble_decay: self.ensemble_decay,
                 seam_frames: self.seam_frames,
-                backend: self.backend.clone(),
+                backend: self.backend,
                 audio_pad: if self.audio_pad_edge {
                     AudioPad::Edge
                 } else {
-                    AudioPad::Stop
+                    self.audio_pad
                 },
             },
             configs: self.configs(),
@@ -306,19 +309,4 @@ pub fn run_curves(a: &CurvesArgs) -> anyhow::Result<String> {
         title: a.title.clone(),
         tag: a.tag.clone(),
     })
-}
-
-/// Logging to stderr for the `qean-eval` binary; RUST_LOG overrides the -v level.
-pub fn init_logging(verbose: u8) {
-    let level = match verbose {
-        0 => "warn",
-        1 => "info",
-        _ => "debug",
-    };
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(format!("{level},symphonia=off")));
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .try_init();
 }

@@ -254,8 +254,14 @@ fn a_toy_family_trains_resumes_exactly_and_samples_through_the_trainer() {
         spec,
         ..SampleOptions::default()
     };
-    let out = qean_models::sampler::sample(&model, &device, &[request.clone()], &opts, |_, _| {})
-        .unwrap();
+    let out = qean_models::sampler::sample(
+        &model,
+        &device,
+        std::slice::from_ref(&request),
+        &opts,
+        |_, _| {},
+    )
+    .unwrap();
     let d = layout.dim();
     assert_eq!(out[0].len(), (spec.motion_len + 30) * d);
     assert_eq!(&out[0][..spec.motion_len * d], &request.seed[..]);

@@ -14,6 +14,7 @@ use std::collections::BTreeSet;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use qean_motion::motion::Layout;
 use serde::{Deserialize, Serialize};
 
 /// Which model family to build: mint's FACT, or QEAN (FACT plus the switches below).
@@ -195,7 +196,7 @@ pub struct ModelConfig {
     /// Layers of the cross-modal transformer (12).
     pub cross_layers: usize,
     /// Motion feature layout, 225 (mint, zero-padded) or 219 (SPEC §1.4).
-    pub motion_layout: usize,
+    pub motion_layout: Layout,
     /// Audio feature width (35, SPEC §2).
     pub audio_dim: usize,
     /// Motion input frames (120).
@@ -262,7 +263,7 @@ impl Default for ModelConfig {
             motion_layers: 2,
             audio_layers: 2,
             cross_layers: 12,
-            motion_layout: 225,
+            motion_layout: Layout::L225,
             audio_dim: 35,
             motion_len: 120,
             audio_len: 240,
@@ -303,7 +304,7 @@ impl Default for ModelConfig {
 impl ModelConfig {
     /// Motion feature width: the layout (225 or 219).
     pub fn motion_dim(&self) -> usize {
-        self.motion_layout
+        self.motion_layout.dim()
     }
 
     /// Width of one head.
@@ -367,12 +368,6 @@ impl ModelConfig {
             return Err(format!(
                 "`heads` = {} does not divide `hidden` = {}",
                 self.heads, self.hidden
-            ));
-        }
-        if self.motion_layout != 225 && self.motion_layout != 219 {
-            return Err(format!(
-                "`motion_layout` must be 225 or 219, got {}",
-                self.motion_layout
             ));
         }
         if self.target_len > self.motion_len + self.audio_len {

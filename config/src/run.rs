@@ -8,6 +8,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::model::{load_merged_table_checked, ConfigError, ModelConfig};
+use qean_aistpp::dataset::Split;
 use qean_aistpp::windows::WindowSpec;
 use qean_motion::motion::Layout;
 use serde::{Deserialize, Serialize};
@@ -23,17 +24,36 @@ pub struct DataConfig {
     /// working directory; the resolved config stores it absolute.
     pub dir: Option<PathBuf>,
     /// Split the windows are drawn from.
-    pub train_split: String,
-    /// Split for the teacher-forced validation loss ("" turns validation off).
-    pub val_split: String,
+    pub train_split: Split,
+    /// Split for the teacher-forced validation loss (`""` turns validation off).
+    #[serde(with = "split_or_none")]
+    pub val_split: Option<Split>,
+}
+
+/// `val_split` in TOML: a split name, or `""` for none (TOML has no null).
+mod split_or_none {
+    use qean_aistpp::dataset::Split;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &Option<Split>, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(v.map_or("", Split::name))
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Split>, D::Error> {
+        let text = String::deserialize(d)?;
+        if text.is_empty() {
+            return Ok(None);
+        }
+        text.parse().map(Some).map_err(serde::de::Error::custom)
+    }
 }
 
 impl Default for DataConfig {
     fn default() -> Self {
         DataConfig {
             dir: None,
-            train_split: "train".into(),
-            val_split: "val".into(),
+            train_split: Split::Train,
+            val_split: Some(Split::Val),
         }
     }
 }
@@ -82,7 +102,7 @@ pub struct TrainConfig {
     /// Checkpoints kept: the last `keep_last`, plus the best by validation loss.
     pub keep_last: usize,
     /// Backend the run trains on: flex (CPU, default), ndarray (CPU) or wgpu (GPU, needs the `wgpu` build).
-    pub backend: String,
+    pub backend: crate::Backend,
 }
 
 impl Default for TrainConfig {
@@ -95,7 +115,7 @@ impl Default for TrainConfig {
             log_every: 10,
             val_every: 1000,
             keep_last: 3,
-            backend: crate::DEFAULT_BACKEND.into(),
+            backend: crate::Backend::Flex,
         }
     }
 }
@@ -239,13 +259,6 @@ impl RunConfig {
         if t.keep_last == 0 {
             return Err("train.keep_last must be at least 1".into());
         }
-        if !crate::BACKENDS.contains(&t.backend.as_str()) {
-            return Err(format!(
-                "train.backend must be one of {}, got `{}`",
-                crate::BACKENDS.join(", "),
-                t.backend
-            ));
-        }
         let o = &self.optim;
         let unit = |x: f64| (0.0..1.0).contains(&x);
         if !unit(o.beta1) || !unit(o.beta2) {
@@ -272,16 +285,6 @@ impl RunConfig {
         self.schedule.validate(t.steps)?;
         self.recipe
             .validate(self.model.motion_len, self.model.target_len)?;
-        for split in [&self.data.train_split, &self.data.val_split] {
-            if !split.is_empty() && split.parse::<qean_aistpp::dataset::Split>().is_err() {
-                return Err(format!(
-                    "data split `{split}` is not one of train, val, test"
-                ));
-            }
-        }
-        if self.data.train_split.is_empty() {
-            return Err("data.train_split must name a split".into());
-        }
         Ok(())
     }
 
@@ -297,11 +300,7 @@ impl RunConfig {
 
     /// The motion layout of the model.
     pub fn layout(&self) -> Layout {
-        if self.model.motion_layout == 219 {
-            Layout::L219
-        } else {
-            Layout::L225
-        }
+        self.model.motion_layout
     }
 
     /// The config as TOML (what R/config.toml holds). Fails only on paths TOML cannot hold (not UTF-8).

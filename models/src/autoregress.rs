@@ -12,8 +12,18 @@ use qean_motion::motion::Layout;
 use qean_motion::rotation::project_to_so3;
 use qean_motion::seam::{self, Seam};
 
-/// What to do when the music ends before the requested number of frames.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+/// What to do when the music ends before the requested number of frames (`--audio-pad`).
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum AudioPad {
     /// Stop early (mint): L = min(frames, T_a − 239).

@@ -6,21 +6,21 @@
 use burn::tensor::Device;
 
 /// Backend names `device` accepts, and the default one.
-pub use qean_config::{BACKENDS, DEFAULT_BACKEND};
+pub use qean_config::{Backend, BACKENDS, DEFAULT_BACKEND};
 
-/// The device of a backend named on the command line or in a config; a one-line error for an
-/// unknown name, a backend this build lacks, or one that cannot start.
-pub fn device(name: &str) -> Result<Device, String> {
-    match name {
-        "flex" => Ok(Device::flex()),
+/// The device of a backend; a one-line error for a backend this build lacks or one that cannot start.
+pub fn device(backend: Backend) -> Result<Device, String> {
+    match backend {
+        Backend::Flex => Ok(Device::flex()),
         #[allow(deprecated)] // Still the independent CPU backend to cross-check flex against.
-        "ndarray" => Ok(Device::ndarray()),
-        "wgpu" => wgpu_device(),
-        other => Err(format!(
-            "unknown backend `{other}`: expected one of {}",
-            BACKENDS.join(", ")
-        )),
+        Backend::Ndarray => Ok(Device::ndarray()),
+        Backend::Wgpu => wgpu_device(),
     }
+}
+
+/// The device of a backend named on the command line; a one-line error for an unknown name too.
+pub fn device_named(name: &str) -> Result<Device, String> {
+    device(name.parse()?)
 }
 
 /// Makes flex Burn's default device unless `BURN_DEVICE` names one. Burn puts some tensors on
@@ -74,7 +74,7 @@ mod tests {
     #[test]
     fn cpu_backends_compute() {
         for name in ["flex", "ndarray"] {
-            let device = device(name).unwrap();
+            let device = device_named(name).unwrap();
             let s = Tensor::<1>::ones([3], &device).sum().into_scalar::<f32>();
             assert_eq!(s, 3.0, "{name}");
         }
@@ -82,13 +82,13 @@ mod tests {
 
     #[test]
     fn unknown_and_missing_backends_are_one_line_errors() {
-        let e = device("cuda").unwrap_err();
+        let e = device_named("cuda").unwrap_err();
         assert!(
             e.contains("cuda") && e.contains("flex") && !e.contains('\n'),
             "{e}"
         );
         if !cfg!(feature = "wgpu") {
-            let e = device("wgpu").unwrap_err();
+            let e = device(Backend::Wgpu).unwrap_err();
             assert!(e.contains("--features wgpu") && !e.contains('\n'), "{e}");
         }
     }

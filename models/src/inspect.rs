@@ -287,7 +287,7 @@ mod tests {
     fn spec_variant_counts() {
         // SPEC §4.2 (225 layout unless stated; H = 16, P = 2, kernel 1, QRA in all 12 layers).
         let layout_219 = ModelConfig {
-            motion_layout: 219,
+            motion_layout: qean_motion::motion::Layout::L219,
             ..ModelConfig::default()
         };
         let spe = ModelConfig {

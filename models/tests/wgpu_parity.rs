@@ -98,7 +98,7 @@ fn max_diff(a: &[f64], b: &[f64]) -> f64 {
 
 #[test]
 fn every_tiny_variant_matches_between_flex_and_wgpu() {
-    let gpu = match backend::device("wgpu") {
+    let gpu = match backend::device(backend::Backend::Wgpu) {
         Ok(d) => d,
         Err(e) => panic!("{e} (install a Vulkan driver, e.g. mesa-vulkan-drivers)"),
     };

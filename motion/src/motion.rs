@@ -13,16 +13,45 @@ use qean_io::pickle::{self, ArrayRef, DType};
 /// Frames per second of AIST++ motion (and of the audio features).
 pub const FPS: f64 = 60.0;
 
-/// The per-frame vector the models read and write (SPEC §1.4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+/// The per-frame vector the models read and write (SPEC §1.4). In configs and JSON it is its width,
+/// the number 225 or 219 (a string "225" is read too).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Layout {
     /// [0×6 | trans | R_0 … R_23]: mint's FACT layout (translation padded to 9 dims). The default.
     #[default]
-    #[serde(rename = "225")]
     L225,
     /// [trans | R_0 … R_23].
-    #[serde(rename = "219")]
     L219,
+}
+
+impl serde::Serialize for Layout {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_u64(self.dim() as u64)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Layout {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        #[derive(serde::Deserialize)]
+        #[serde(untagged)]
+        enum Width {
+            Number(u64),
+            Text(String),
+        }
+        let n = match Width::deserialize(d)? {
+            Width::Number(n) => n,
+            Width::Text(t) => t.parse().map_err(|_| {
+                serde::de::Error::custom(format!("layout must be 225 or 219, got {t:?}"))
+            })?,
+        };
+        match n {
+            225 => Ok(Layout::L225),
+            219 => Ok(Layout::L219),
+            other => Err(serde::de::Error::custom(format!(
+                "layout must be 225 or 219, got {other}"
+            ))),
+        }
+    }
 }
 
 impl Layout {

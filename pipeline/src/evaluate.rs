@@ -34,7 +34,7 @@ pub struct SamplingOverrides {
     /// Frames over which the jump at the seed's end fades out.
     pub seam_frames: Option<usize>,
     /// Backend for sampling (default: the run's).
-    pub backend: Option<String>,
+    pub backend: Option<qean_models::backend::Backend>,
     /// Keep generating past the end of the music by repeating its last frame.
     pub audio_pad: AudioPad,
 }
@@ -299,12 +299,8 @@ fn sample_dances(
     requests: &[SampleRequest],
     opts: &SampleOptions,
 ) -> anyhow::Result<Vec<Vec<f32>>> {
-    let backend = req
-        .sampling
-        .backend
-        .clone()
-        .unwrap_or_else(|| ck.config.train.backend.clone());
-    let device = qean_models::backend::device(&backend).map_err(anyhow::Error::msg)?;
+    let backend = req.sampling.backend.unwrap_or(ck.config.train.backend);
+    let device = qean_models::backend::device(backend).map_err(anyhow::Error::msg)?;
     let model = ck.load_model(&device)?;
     let pb = ProgressBar::new(req.max_frames as u64);
     pb.set_style(

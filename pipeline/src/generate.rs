@@ -111,7 +111,7 @@ pub struct GenerateOptions {
     /// Frames over which the jump at the seed's end fades out (0 = off, mint).
     pub seam_frames: usize,
     pub render: bool,
-    pub backend: String,
+    pub backend: qean_models::backend::Backend,
 }
 
 /// What was written for one song.
@@ -147,7 +147,7 @@ pub fn generate(
     std::fs::write(&probe, b"")
         .map_err(|e| Error::at(out, format!("output directory is not writable: {e}")))?;
     let _ = std::fs::remove_file(&probe);
-    let device = qean_models::backend::device(&opts.backend).map_err(Error::msg)?;
+    let device = qean_models::backend::device(opts.backend).map_err(Error::msg)?;
     let model = ck.load_model(&device)?;
     let sample_opts = SampleOptions {
         frames: opts.frames,

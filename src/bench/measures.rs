@@ -301,7 +301,7 @@ fn load_config(path: &Path) -> anyhow::Result<RunConfig> {
 }
 
 fn device(backend: &str) -> anyhow::Result<Device> {
-    qean_models::backend::device(backend).map_err(|e| anyhow::anyhow!("{e}"))
+    qean_models::backend::device_named(backend).map_err(|e| anyhow::anyhow!("{e}"))
 }
 
 fn train(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {

@@ -19,7 +19,7 @@ struct Cli {
 fn main() {
     qean_models::backend::prefer_cpu_default_device();
     let cli = Cli::parse();
-    qean::eval_cli::init_logging(cli.verbose);
+    qean::logging::init(cli.verbose);
     match qean::eval_cli::run_eval(&cli.args) {
         Ok(table) => print!("{table}"),
         Err(e) => {

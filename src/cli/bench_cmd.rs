@@ -106,7 +106,7 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<()> {
             .collect::<anyhow::Result<_>>()?;
     }
     for b in &a.backends {
-        qean_models::backend::device(b).map_err(|e| anyhow::anyhow!("--backends: {e}"))?;
+        qean_models::backend::device_named(b).map_err(|e| anyhow::anyhow!("--backends: {e}"))?;
     }
     opts.backends = a.backends.clone();
     if !a.in_process {

@@ -19,7 +19,7 @@ with AIST++ data handling, librosa-0.8.1-exact music features and the standard A
 Start with `qean demo --quick`: the whole system on embedded data in a few minutes."
 )]
 pub struct Cli {
-    /// More log output (-v info, -vv debug). Logs go to stderr; QEAN_LOG=... overrides.
+    /// More log output (-v info, -vv debug). Logs go to stderr; QEAN_LOG=... (or RUST_LOG) overrides.
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
     pub verbose: u8,
     #[command(subcommand)]
@@ -45,19 +45,7 @@ pub enum Command {
 }
 
 pub fn init_logging(verbose: u8) {
-    let level = match verbose {
-        0 => "warn",
-        1 => "info",
-        _ => "debug",
-    };
-    // The audio decoders' own log lines are noise next to our one-line errors.
-    let filter = tracing_subscriber::EnvFilter::try_from_env("QEAN_LOG")
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(format!("{level},symphonia=off")));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_target(false)
-        .init();
+    qean::logging::init(verbose);
 }
 
 /// Runs a command; the value is the process exit code (130 when a run was interrupted).

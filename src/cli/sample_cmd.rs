@@ -54,8 +54,8 @@ pub struct SampleArgs {
     #[arg(long, default_value_t = 1200)]
     pub frames: usize,
     /// When the music ends first: stop (mint) or edge (repeat the last music frame).
-    #[arg(long, default_value = "stop", value_parser = ["stop", "edge"])]
-    pub audio_pad: String,
+    #[arg(long, value_enum, default_value_t = AudioPad::Stop)]
+    pub audio_pad: AudioPad,
     /// Project fed-back rotations to SO(3) and zero the pad dims (default: the run's
     /// recipe.feedback_project; off in mint's reference sampler).
     #[arg(long, conflicts_with = "raw_feedback")]
@@ -85,8 +85,8 @@ pub struct SampleArgs {
     #[arg(long)]
     pub render: bool,
     /// Backend (default: the run's).
-    #[arg(long)]
-    pub backend: Option<String>,
+    #[arg(long, value_enum)]
+    pub backend: Option<qean_models::backend::Backend>,
 }
 
 pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
@@ -113,11 +113,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
     let seed = generate::seed_motion(&source, a.seed_start, &ck)?;
     let opts = GenerateOptions {
         frames: a.frames,
-        audio_pad: if a.audio_pad == "edge" {
-            AudioPad::Edge
-        } else {
-            AudioPad::Stop
-        },
+        audio_pad: a.audio_pad,
         feedback_project: ck
             .config
             .recipe
@@ -126,7 +122,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         ensemble_decay: a.ensemble_decay.unwrap_or(ck.config.recipe.ensemble_decay),
         seam_frames: a.seam_frames.unwrap_or(ck.config.recipe.seam_frames),
         render: a.render,
-        backend: a.backend.clone().unwrap_or(ck.config.train.backend.clone()),
+        backend: a.backend.unwrap_or(ck.config.train.backend),
     };
     let pb = ProgressBar::new(a.frames as u64);
     pb.set_style(

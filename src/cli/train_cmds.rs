@@ -36,8 +36,8 @@ pub struct TrainArgs {
     #[arg(long)]
     pub data: Option<PathBuf>,
     /// Backend: flex (CPU, default), ndarray (CPU), wgpu (GPU; needs a build with --features wgpu).
-    #[arg(long)]
-    pub backend: Option<String>,
+    #[arg(long, value_enum)]
+    pub backend: Option<qean_models::backend::Backend>,
     /// Override any config field: --set train.steps=100 --set model.dropout=0.2 (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
@@ -64,13 +64,17 @@ pub(crate) fn stop_flag() -> Arc<AtomicBool> {
     flag
 }
 
-fn overrides(set: &[String], data: &Option<PathBuf>, backend: &Option<String>) -> Vec<String> {
+fn overrides(
+    set: &[String],
+    data: &Option<PathBuf>,
+    backend: &Option<qean_models::backend::Backend>,
+) -> Vec<String> {
     let mut o = set.to_vec();
     if let Some(d) = data {
         o.push(string_override("data.dir", &d.to_string_lossy()));
     }
     if let Some(b) = backend {
-        o.push(string_override("train.backend", b));
+        o.push(string_override("train.backend", b.name()));
     }
     o
 }
@@ -153,8 +157,8 @@ pub struct SweepArgs {
     #[arg(long)]
     pub data: Option<PathBuf>,
     /// Backend for every run.
-    #[arg(long)]
-    pub backend: Option<String>,
+    #[arg(long, value_enum)]
+    pub backend: Option<qean_models::backend::Backend>,
     /// Override a field in every run (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
@@ -209,7 +213,10 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
         None
     };
     let results = sweep::run(&out_dir, &runs, &options, evaluator_ref)?;
-    if results.iter().any(|r| r.status == "interrupted") {
+    if results
+        .iter()
+        .any(|r| r.status == sweep::RunStatus::Interrupted)
+    {
         println!("interrupted: run the same command again to continue");
         return Ok(130);
     }

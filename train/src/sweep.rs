@@ -9,6 +9,26 @@ pub use qean_config::sweep::{plan, PlannedRun, SweepConfig, Variant};
 
 use crate::trainer::{self, Start, TrainOptions};
 
+/// How a sweep's run ended this time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RunStatus {
+    Finished,
+    /// It had reached its step count in an earlier sweep.
+    FinishedEarlier,
+    /// Stopped (Ctrl-C) with a checkpoint; the next sweep resumes it.
+    Interrupted,
+}
+
+impl std::fmt::Display for RunStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            RunStatus::Finished => "finished",
+            RunStatus::FinishedEarlier => "finished earlier",
+            RunStatus::Interrupted => "interrupted",
+        })
+    }
+}
+
 /// One row of the summary.
 #[derive(Debug, Clone)]
 pub struct RunResult {
@@ -17,7 +37,7 @@ pub struct RunResult {
     pub train_loss: Option<f64>,
     pub val_loss: Option<f64>,
     pub seconds: f64,
-    pub status: String,
+    pub status: RunStatus,
     /// Metric name → value (when evaluation ran).
     pub metrics: Vec<(String, f64)>,
 }
@@ -43,11 +63,11 @@ pub fn run(
         };
         let outcome = trainer::train(run.config.clone(), &opts)?;
         let status = if outcome.interrupted {
-            "interrupted"
+            RunStatus::Interrupted
         } else if outcome.already_done {
-            "finished earlier"
+            RunStatus::FinishedEarlier
         } else {
-            "finished"
+            RunStatus::Finished
         };
         let rows = crate::metrics_log::read(&run.run_dir.join("metrics.csv")).unwrap_or_default();
         let train_loss = rows.iter().rev().find_map(|r| r.loss);
@@ -62,7 +82,7 @@ pub fn run(
             train_loss,
             val_loss,
             seconds: outcome.seconds,
-            status: status.into(),
+            status,
             metrics,
         });
         write_summary(out_dir, &results)?;

@@ -170,7 +170,7 @@ impl<F: Family> Session<'_, F> {
             best: self.best,
             elapsed_seconds: self.elapsed(),
             params_hash,
-            backend: self.config.train.backend.clone(),
+            backend: self.config.train.backend.to_string(),
         }
     }
 
@@ -333,10 +333,9 @@ fn load_sets<F: Family>(
     config: &RunConfig,
 ) -> Result<(SequenceSet, Option<SequenceSet>)> {
     let train_set = family.load_set(ds, train_split, family.draw_spec(config), config)?;
-    if config.data.val_split.is_empty() {
+    let Some(split) = config.data.val_split else {
         return Ok((train_set, None));
-    }
-    let split: Split = config.data.val_split.parse().map_err(Error::msg)?;
+    };
     if ds.split(split).is_empty() {
         tracing::warn!("the {} split is empty: no validation", split.name());
         return Ok((train_set, None));
@@ -355,7 +354,7 @@ fn train_locked<F: Family>(
     let resume = crate::resume::resume_point(&run_dir, &opts.start, &config)?;
     let data_dir = absolute_data_dir(&mut config)?;
     let ds = Dataset::open(&data_dir)?;
-    let train_split: Split = config.data.train_split.parse().map_err(Error::msg)?;
+    let train_split = config.data.train_split;
     family.prepare(&mut config, &ds, train_split, resume.as_ref())?;
     let (train_set, val_set) = load_sets(family, &ds, train_split, &config)?;
     let mut s = Session::start(
@@ -385,7 +384,7 @@ impl<'f, F: Family> Session<'f, F> {
         resume: Option<&Checkpoint>,
     ) -> Result<Self> {
         let run_dir = run_dir.to_path_buf();
-        let plain = qean_models::backend::device(&config.train.backend).map_err(Error::msg)?;
+        let plain = qean_models::backend::device(config.train.backend).map_err(Error::msg)?;
         let device = plain.clone().autodiff();
         let total = config.train.steps;
         let seed = config.train.seed;
