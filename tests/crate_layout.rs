@@ -1,5 +1,6 @@
 //! The crates keep their concerns (docs/architecture.md): the metrics build without Burn, the config
-//! without the audio and image stacks, the audio features without Burn or images.
+//! without the audio and image stacks, the audio features without Burn or images; and functions stay
+//! short enough to read.
 
 use std::process::Command;
 
@@ -58,4 +59,22 @@ fn audio_features_build_without_burn_or_images() {
     assert_none("qean-audio", |d| {
         d.starts_with("burn") || d == "png" || d == "gif"
     });
+}
+
+/// No function outside tests is longer than 120 lines, except the pickle VM (one dispatch over
+/// opcodes); tools/longest_functions.py prints the ten longest.
+#[test]
+fn functions_stay_short() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let out = Command::new("python3")
+        .arg(format!("{root}/tools/longest_functions.py"))
+        .args(["10", "--max", "120"])
+        .output()
+        .expect("python3 runs");
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

@@ -136,6 +136,112 @@ pub fn decode_file(path: &Path, max_seconds: f64) -> Result<Decoded> {
     }
 }
 
+/// Decodes every packet of the track into `mono` (channels averaged as librosa's `to_mono`); returns the
+/// stream's rate (None when it held no samples) and channel count. Refuses streams that change their
+/// parameters midway or run past `max_seconds`.
+fn decode_packets(
+    path: &Path,
+    format: &mut dyn symphonia::core::formats::FormatReader,
+    decoder: &mut dyn symphonia::core::codecs::audio::AudioDecoder,
+    track_id: u32,
+    max_seconds: f64,
+    mono: &mut Vec<f32>,
+) -> Result<(Option<u32>, usize)> {
+    let mut rate: Option<u32> = None;
+    let mut channels = 0usize;
+    let mut planes: Vec<Vec<f32>> = Vec::new();
+    loop {
+        let packet = match format.next_packet() {
+            Ok(Some(p)) => p,
+            Ok(None) => break,
+            Err(SymError::ResetRequired) => {
+                return Err(Error::at(
+                    path,
+                    "the stream changes its parameters midway (unsupported)",
+                ))
+            }
+            Err(e) => return Err(sym_err(path, "reading the stream", e)),
+        };
+        if packet.track_id != track_id {
+            continue;
+        }
+        let buf = decoder
+            .decode(&packet)
+            .map_err(|e| sym_err(path, "decoding", e))?;
+        let spec = buf.spec();
+        let (r, ch) = (spec.rate(), spec.channels().count());
+        if r == 0 || r > MAX_RATE {
+            return Err(Error::at(path, format!("implausible sample rate {r} Hz")));
+        }
+        if ch == 0 || ch > MAX_CHANNELS {
+            return Err(Error::at(path, format!("implausible channel count {ch}")));
+        }
+        match rate {
+            None => {
+                rate = Some(r);
+                channels = ch;
+            }
+            Some(r0) if r0 != r || channels != ch => {
+                return Err(Error::at(
+                    path,
+                    "the sample rate or channel count changes midway (unsupported)",
+                ))
+            }
+            _ => {}
+        }
+        let frames = buf.frames();
+        if frames == 0 {
+            continue;
+        }
+        if (mono.len() + frames) as f64 > max_seconds * r as f64 {
+            return Err(Error::at(
+                path,
+                format!("longer than the limit of {max_seconds} s"),
+            ));
+        }
+        buf.copy_to_vecs_planar::<f32>(&mut planes);
+        if ch == 1 {
+            mono.extend_from_slice(&planes[0][..frames]);
+        } else {
+            // librosa `to_mono`: numpy's float32 mean over channels (sum in f32, then divide).
+            let inv = ch as f32;
+            for i in 0..frames {
+                let mut s = 0.0f32;
+                for p in planes.iter().take(ch) {
+                    s += p[i];
+                }
+                mono.push(s / inv);
+            }
+        }
+    }
+    Ok((rate, channels))
+}
+
+/// The decoded samples are there, as many as an exact header announced, and finite.
+fn check_decoded(path: &Path, mono: &[f32], announced: Option<u64>) -> Result<()> {
+    if mono.is_empty() {
+        return Err(Error::at(path, "no audio samples"));
+    }
+    if let Some(n) = announced {
+        if (mono.len() as u64) < n {
+            return Err(Error::at(
+                path,
+                format!(
+                    "truncated or corrupt: the header announces {n} samples per channel, only {} decode",
+                    mono.len()
+                ),
+            ));
+        }
+    }
+    if let Some(i) = mono.iter().position(|v| !v.is_finite()) {
+        return Err(Error::at(
+            path,
+            format!("sample {i} is not finite (corrupt float data)"),
+        ));
+    }
+    Ok(())
+}
+
 fn decode_inner(path: &Path, max_seconds: f64) -> Result<Decoded> {
     let mut file = File::open(path).map_err(|e| Error::io(path, e))?;
     let byte_len = file.metadata().map_err(|e| Error::io(path, e))?.len();
@@ -211,73 +317,14 @@ fn decode_inner(path: &Path, max_seconds: f64) -> Result<Decoded> {
             .min(max_seconds * r as f64);
         mono.reserve(cap.max(0.0) as usize);
     }
-    let mut rate: Option<u32> = None;
-    let mut channels = 0usize;
-    let mut planes: Vec<Vec<f32>> = Vec::new();
-    loop {
-        let packet = match format.next_packet() {
-            Ok(Some(p)) => p,
-            Ok(None) => break,
-            Err(SymError::ResetRequired) => {
-                return Err(Error::at(
-                    path,
-                    "the stream changes its parameters midway (unsupported)",
-                ))
-            }
-            Err(e) => return Err(sym_err(path, "reading the stream", e)),
-        };
-        if packet.track_id != track_id {
-            continue;
-        }
-        let buf = decoder
-            .decode(&packet)
-            .map_err(|e| sym_err(path, "decoding", e))?;
-        let spec = buf.spec();
-        let (r, ch) = (spec.rate(), spec.channels().count());
-        if r == 0 || r > MAX_RATE {
-            return Err(Error::at(path, format!("implausible sample rate {r} Hz")));
-        }
-        if ch == 0 || ch > MAX_CHANNELS {
-            return Err(Error::at(path, format!("implausible channel count {ch}")));
-        }
-        match rate {
-            None => {
-                rate = Some(r);
-                channels = ch;
-            }
-            Some(r0) if r0 != r || channels != ch => {
-                return Err(Error::at(
-                    path,
-                    "the sample rate or channel count changes midway (unsupported)",
-                ))
-            }
-            _ => {}
-        }
-        let frames = buf.frames();
-        if frames == 0 {
-            continue;
-        }
-        if (mono.len() + frames) as f64 > max_seconds * r as f64 {
-            return Err(Error::at(
-                path,
-                format!("longer than the limit of {max_seconds} s"),
-            ));
-        }
-        buf.copy_to_vecs_planar::<f32>(&mut planes);
-        if ch == 1 {
-            mono.extend_from_slice(&planes[0][..frames]);
-        } else {
-            // librosa `to_mono`: numpy's float32 mean over channels (sum in f32, then divide).
-            let inv = ch as f32;
-            for i in 0..frames {
-                let mut s = 0.0f32;
-                for p in planes.iter().take(ch) {
-                    s += p[i];
-                }
-                mono.push(s / inv);
-            }
-        }
-    }
+    let (rate, channels) = decode_packets(
+        path,
+        format.as_mut(),
+        decoder.as_mut(),
+        track_id,
+        max_seconds,
+        &mut mono,
+    )?;
     let rate = match rate {
         Some(r) => r,
         None => {
@@ -287,26 +334,7 @@ fn decode_inner(path: &Path, max_seconds: f64) -> Result<Decoded> {
             ))
         }
     };
-    if mono.is_empty() {
-        return Err(Error::at(path, "no audio samples"));
-    }
-    if let Some(n) = header_frames.filter(|_| exact_count) {
-        if (mono.len() as u64) < n {
-            return Err(Error::at(
-                path,
-                format!(
-                    "truncated or corrupt: the header announces {n} samples per channel, only {} decode",
-                    mono.len()
-                ),
-            ));
-        }
-    }
-    if let Some(i) = mono.iter().position(|v| !v.is_finite()) {
-        return Err(Error::at(
-            path,
-            format!("sample {i} is not finite (corrupt float data)"),
-        ));
-    }
+    check_decoded(path, &mono, header_frames.filter(|_| exact_count))?;
     Ok(Decoded {
         samples: mono,
         rate,

@@ -137,6 +137,170 @@ pub fn resampy(x: &[f64], sr_in: f64, sr_out: f64, filter: Resampler) -> Result<
 /// A range of outputs, [start, end).
 type Span = (usize, usize);
 
+/// resampy's interpolation table in polyphase layout (row o holds (win, delta)[o + i·step] for i = 0.., so
+/// each wing reads contiguously), and the float32 signal it filters.
+struct Kernel<'a> {
+    xf: &'a [f32],
+    poly: Vec<(f64, f64)>,
+    row: usize,
+    nwin: usize,
+    index_step: usize,
+    scale: f64,
+}
+
+/// Outputs accumulated in lockstep by the exact path.
+const G: usize = 32;
+
+impl<'a> Kernel<'a> {
+    fn new(xf: &'a [f32], filter: Resampler, ratio: f64) -> Self {
+        let base = table(filter);
+        // Downsampling scales the table by the ratio (resampy: `interp_win *= sample_ratio`).
+        let win: Vec<f64> = if ratio < 1.0 {
+            base.iter().map(|&h| h * ratio).collect()
+        } else {
+            base.to_vec()
+        };
+        let mut delta = vec![0.0; win.len()];
+        for i in 0..win.len() - 1 {
+            delta[i] = win[i + 1] - win[i];
+        }
+        let scale = ratio.min(1.0);
+        let index_step = (scale * PRECISION as f64) as usize;
+        let nwin = win.len();
+        let row = nwin / index_step + 1;
+        let mut poly = vec![(0.0f64, 0.0f64); (index_step + 1) * row];
+        for o in 0..=index_step {
+            for i in 0..row {
+                let k = o + i * index_step;
+                if k < nwin {
+                    poly[o * row + i] = (win[k], delta[k]);
+                }
+            }
+        }
+        Kernel {
+            xf,
+            poly,
+            row,
+            nwin,
+            index_step,
+            scale,
+        }
+    }
+
+    /// Where output at `time_register` reads: n = floor(register), and for each wing the table offset and
+    /// interpolation fraction eta (resampy's arithmetic, step by step).
+    fn position(&self, time_register: f64) -> (usize, (usize, f64), (usize, f64)) {
+        let num_table = PRECISION as f64;
+        let n = time_register as usize;
+        let frac = self.scale * (time_register - n as f64);
+        let index_frac = frac * num_table;
+        let off_l = index_frac as usize;
+        let eta_l = index_frac - off_l as f64;
+        let frac = self.scale - frac;
+        let index_frac = frac * num_table;
+        let off_r = index_frac as usize;
+        let eta_r = index_frac - off_r as f64;
+        (n, (off_l, eta_l), (off_r, eta_r))
+    }
+
+    /// The two wings: (table row, eta) for the left wing (read backwards from x[n]) and the right wing
+    /// (forwards from x[n + 1]), with as many taps as resampy takes at this position.
+    #[allow(clippy::type_complexity)]
+    fn wings(&self, time_register: f64) -> (usize, (&[(f64, f64)], f64), (&[(f64, f64)], f64)) {
+        let (n, (off_l, eta_l), (off_r, eta_r)) = self.position(time_register);
+        let (row, step) = (self.row, self.index_step);
+        let i_max = (n + 1).min((self.nwin - off_l) / step);
+        let k_max = (self.xf.len().saturating_sub(n + 1)).min((self.nwin - off_r) / step);
+        (
+            n,
+            (&self.poly[off_l * row..off_l * row + i_max], eta_l),
+            (&self.poly[off_r * row..off_r * row + k_max], eta_r),
+        )
+    }
+
+    /// Products of output j, in resampy's order, written interleaved: q[idx·G + j]. Returns the count.
+    fn fill(&self, time_register: f64, q: &mut [f64], j: usize) -> usize {
+        let (n, (left, eta_l), (right, eta_r)) = self.wings(time_register);
+        let xs = &self.xf[n + 1 - left.len()..=n];
+        let mut idx = 0;
+        for (&(w, d), &x) in left.iter().zip(xs.iter().rev()) {
+            q[idx * G + j] = (w + eta_l * d) * x as f64;
+            idx += 1;
+        }
+        let xs = &self.xf[n + 1..n + 1 + right.len()];
+        for (&(w, d), &x) in right.iter().zip(xs) {
+            q[idx * G + j] = (w + eta_r * d) * x as f64;
+            idx += 1;
+        }
+        idx
+    }
+
+    /// f64 dot product of one output, four lanes.
+    fn dot(&self, time_register: f64) -> f64 {
+        let (n, (left, eta_l), (right, eta_r)) = self.wings(time_register);
+        let mut lanes = [0.0f64; 4];
+        let xs = &self.xf[n + 1 - left.len()..=n];
+        for (i, (&(w, d), &x)) in left.iter().zip(xs.iter().rev()).enumerate() {
+            lanes[i & 3] += (w + eta_l * d) * x as f64;
+        }
+        let xs = &self.xf[n + 1..n + 1 + right.len()];
+        for (i, (&(w, d), &x)) in right.iter().zip(xs).enumerate() {
+            lanes[i & 3] += (w + eta_r * d) * x as f64;
+        }
+        (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
+    }
+
+    /// Every tap of a wing (no clipping at the signal's ends), interpolation applied.
+    fn taps(&self, off: usize, eta: f64) -> Vec<f64> {
+        self.poly[off * self.row..off * self.row + (self.nwin - off) / self.index_step]
+            .iter()
+            .map(|&(w, d)| w + eta * d)
+            .collect()
+    }
+
+    /// The outputs at `regs`, output by output. Products in resampy's accumulation order (left wing
+    /// i = 0.., then right wing k = 0..); with `exact` the sum is rounded to f32 after every addition, and
+    /// 32 outputs are accumulated in lockstep so the serial rounding chains overlap (each output's own
+    /// order is unchanged, so the result is identical).
+    fn serial(&self, out: &mut [f64], regs: &[f64], exact: bool) {
+        out.par_chunks_mut(4096)
+            .zip(regs.par_chunks(4096))
+            .for_each(|(out, regs)| {
+                if !exact {
+                    for (o, &r) in out.iter_mut().zip(regs) {
+                        *o = self.dot(r) as f32 as f64;
+                    }
+                    return;
+                }
+                let cap = 2 * (self.nwin / self.index_step + 2);
+                let mut q = vec![0.0f64; cap * G];
+                for (og, rg) in out.chunks_mut(G).zip(regs.chunks(G)) {
+                    let mut len = [0usize; G];
+                    for (j, &r) in rg.iter().enumerate() {
+                        len[j] = self.fill(r, &mut q, j);
+                    }
+                    let m = rg.len();
+                    let mut acc = [0.0f32; G];
+                    let mut common = 0;
+                    if m == G {
+                        common = *len.iter().min().unwrap();
+                        for step in q[..common * G].chunks_exact(G) {
+                            for j in 0..G {
+                                acc[j] = (acc[j] as f64 + step[j]) as f32;
+                            }
+                        }
+                    }
+                    for j in 0..m {
+                        for idx in common..len[j] {
+                            acc[j] = (acc[j] as f64 + q[idx * G + j]) as f32;
+                        }
+                        og[j] = acc[j] as f64;
+                    }
+                }
+            });
+    }
+}
+
 /// resampy on float32 input. `exact` = true rounds every partial sum to f32 (bit-exact); false sums each
 /// output's products in f64 and rounds once (faster, within a few f32 ulps). The output has room for
 /// `spare` more samples (librosa pads by one). Also returns the outputs the periodic kernel computed.
@@ -166,168 +330,35 @@ fn resampy_core(
             xf.len()
         )));
     }
-    let base = table(filter);
-    // Downsampling scales the table by the ratio (resampy: `interp_win *= sample_ratio`).
-    let win: Vec<f64> = if ratio < 1.0 {
-        base.iter().map(|&h| h * ratio).collect()
-    } else {
-        base.to_vec()
-    };
-    let mut delta = vec![0.0; win.len()];
-    for i in 0..win.len() - 1 {
-        delta[i] = win[i + 1] - win[i];
-    }
-    let scale = ratio.min(1.0);
-    let time_increment = 1.0 / ratio;
-    let index_step = (scale * PRECISION as f64) as usize;
-    let nwin = win.len();
-    let n_orig = xf.len();
-    let num_table = PRECISION as f64;
-
-    let registers = Registers::new(n_out, time_increment);
-
-    // Products in resampy's accumulation order (left wing i = 0.., then right wing k = 0..); the sum is
-    // then rounded to f32 after every addition. 32 outputs are accumulated in lockstep so the serial
-    // rounding chains overlap; each output's own order is unchanged, so the result is identical.
-    // Polyphase layout: row o holds (win, delta)[o + i·step] for i = 0.., so each wing reads contiguously.
-    let row = nwin / index_step + 1;
-    let mut poly = vec![(0.0f64, 0.0f64); (index_step + 1) * row];
-    for o in 0..=index_step {
-        for i in 0..row {
-            let k = o + i * index_step;
-            if k < nwin {
-                poly[o * row + i] = (win[k], delta[k]);
-            }
-        }
-    }
-    // Where output at `time_register` reads: n = floor(register), and for each wing the table offset and
-    // interpolation fraction eta (resampy's arithmetic, step by step).
-    let position = |time_register: f64| {
-        let n = time_register as usize;
-        let frac = scale * (time_register - n as f64);
-        let index_frac = frac * num_table;
-        let off_l = index_frac as usize;
-        let eta_l = index_frac - off_l as f64;
-        let frac = scale - frac;
-        let index_frac = frac * num_table;
-        let off_r = index_frac as usize;
-        let eta_r = index_frac - off_r as f64;
-        (n, (off_l, eta_l), (off_r, eta_r))
-    };
-    // The two wings: (table row, eta) for the left wing (read backwards from x[n]) and the right wing
-    // (forwards from x[n + 1]), with as many taps as resampy takes at this position.
-    const G: usize = 32;
-    let wings = |time_register: f64| {
-        let (n, (off_l, eta_l), (off_r, eta_r)) = position(time_register);
-        let i_max = (n + 1).min((nwin - off_l) / index_step);
-        let k_max = (n_orig.saturating_sub(n + 1)).min((nwin - off_r) / index_step);
-        (
-            n,
-            (&poly[off_l * row..off_l * row + i_max], eta_l),
-            (&poly[off_r * row..off_r * row + k_max], eta_r),
-        )
-    };
-    // Products of output j, in resampy's order, written interleaved: q[idx·G + j]. Returns the count.
-    let fill = |time_register: f64, q: &mut [f64], j: usize| -> usize {
-        let (n, (left, eta_l), (right, eta_r)) = wings(time_register);
-        let xs = &xf[n + 1 - left.len()..=n];
-        let mut idx = 0;
-        for (&(w, d), &x) in left.iter().zip(xs.iter().rev()) {
-            q[idx * G + j] = (w + eta_l * d) * x as f64;
-            idx += 1;
-        }
-        let xs = &xf[n + 1..n + 1 + right.len()];
-        for (&(w, d), &x) in right.iter().zip(xs) {
-            q[idx * G + j] = (w + eta_r * d) * x as f64;
-            idx += 1;
-        }
-        idx
-    };
-    // f64 dot product of one output, four lanes.
-    let dot = |time_register: f64| -> f64 {
-        let (n, (left, eta_l), (right, eta_r)) = wings(time_register);
-        let mut lanes = [0.0f64; 4];
-        let xs = &xf[n + 1 - left.len()..=n];
-        for (i, (&(w, d), &x)) in left.iter().zip(xs.iter().rev()).enumerate() {
-            lanes[i & 3] += (w + eta_l * d) * x as f64;
-        }
-        let xs = &xf[n + 1..n + 1 + right.len()];
-        for (i, (&(w, d), &x)) in right.iter().zip(xs).enumerate() {
-            lanes[i & 3] += (w + eta_r * d) * x as f64;
-        }
-        (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
-    };
-    let serial = |out: &mut [f64], regs: &[f64]| {
-        out.par_chunks_mut(4096)
-            .zip(regs.par_chunks(4096))
-            .for_each(|(out, regs)| {
-                let cap = 2 * (nwin / index_step + 2);
-                if !exact {
-                    for (o, &r) in out.iter_mut().zip(regs) {
-                        *o = dot(r) as f32 as f64;
-                    }
-                    return;
-                }
-                let mut q = vec![0.0f64; cap * G];
-                for (og, rg) in out.chunks_mut(G).zip(regs.chunks(G)) {
-                    let mut len = [0usize; G];
-                    for (j, &r) in rg.iter().enumerate() {
-                        len[j] = fill(r, &mut q, j);
-                    }
-                    let m = rg.len();
-                    let mut acc = [0.0f32; G];
-                    let mut common = 0;
-                    if m == G {
-                        common = *len.iter().min().unwrap();
-                        for step in q[..common * G].chunks_exact(G) {
-                            for j in 0..G {
-                                acc[j] = (acc[j] as f64 + step[j]) as f32;
-                            }
-                        }
-                    }
-                    for j in 0..m {
-                        for idx in common..len[j] {
-                            acc[j] = (acc[j] as f64 + q[idx * G + j]) as f32;
-                        }
-                        og[j] = acc[j] as f64;
-                    }
-                }
-            });
-    };
+    let kernel = Kernel::new(xf, filter, ratio);
+    let registers = Registers::new(n_out, 1.0 / ratio);
     let mut out = Vec::with_capacity(n_out + spare);
     out.resize(n_out, 0.0f64);
     let periodic = match &registers {
         Registers::Periodic { first, stride, .. } => {
-            // Every tap of a wing (no clipping at the signal's ends), interpolation applied.
-            let taps = |off: usize, eta: f64| -> Vec<f64> {
-                poly[off * row..off * row + (nwin - off) / index_step]
-                    .iter()
-                    .map(|&(w, d)| w + eta * d)
-                    .collect()
-            };
             let phases: Vec<Phase> = first
                 .iter()
                 .map(|&r| {
-                    let (n, (off_l, eta_l), (off_r, eta_r)) = position(r);
+                    let (n, (off_l, eta_l), (off_r, eta_r)) = kernel.position(r);
                     Phase {
                         n,
-                        left: taps(off_l, eta_l),
-                        right: taps(off_r, eta_r),
+                        left: kernel.taps(off_l, eta_l),
+                        right: kernel.taps(off_r, eta_r),
                     }
                 })
                 .collect();
-            Periodic::new(phases, *stride, n_orig, &registers, n_out)
+            Periodic::new(phases, *stride, xf.len(), &registers, n_out)
         }
         Registers::All(_) => None,
     };
     match &periodic {
         Some(plan) => {
             let (a, b) = plan.range;
-            serial(&mut out[..a], &registers.span(0, a));
-            serial(&mut out[b..], &registers.span(b, n_out));
+            kernel.serial(&mut out[..a], &registers.span(0, a), exact);
+            kernel.serial(&mut out[b..], &registers.span(b, n_out), exact);
             plan.run(xf, &mut out[a..b], exact);
         }
-        None => serial(&mut out, &registers.span(0, n_out)),
+        None => kernel.serial(&mut out, &registers.span(0, n_out), exact),
     }
     Ok((out, periodic.map(|p| p.range)))
 }

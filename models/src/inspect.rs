@@ -55,6 +55,79 @@ pub fn group_digits(n: usize) -> String {
     out
 }
 
+/// How positions are encoded, in words.
+fn positions_text(c: &ModelConfig) -> String {
+    match (c.position, c.keep_abs_pos) {
+        (PositionKind::Learned, _) => "learned absolute".to_string(),
+        (PositionKind::Rotary, keep) => format!(
+            "rotary (SPE, {:?} pairs, base {}, cross positions {:?}){}",
+            c.rope_pairing,
+            c.rope_base,
+            c.cross_positions,
+            if keep { " + learned absolute" } else { "" }
+        ),
+    }
+}
+
+/// The cross-modal attention, in words.
+fn attention_text(c: &ModelConfig) -> String {
+    match (c.attention, c.qra_topology) {
+        (AttentionKind::Softmax, _) => "softmax".to_string(),
+        (AttentionKind::Qra, QraTopology::SelfAttention) => {
+            let n = (0..c.cross_layers).filter(|&l| c.layer_uses_qra(l)).count();
+            format!(
+                "QRA in {n} of {} layers (P {}, kernel {}, q/k head dim {}, 2π {}, conv input {:?}, positions {:?})",
+                c.cross_layers,
+                c.qra_periods,
+                c.qra_kernel,
+                c.qra_qk_head_dim(),
+                c.qra_two_pi,
+                c.qra_conv_input,
+                c.qra_positions
+            )
+        }
+        (AttentionKind::Qra, QraTopology::CrossPrefix) => format!(
+            "softmax, after a motion→audio QRA block (P {}, kernel {})",
+            c.qra_periods, c.qra_kernel
+        ),
+    }
+}
+
+/// The parameter count of each part of the model.
+fn parts_of(model: &DanceModel) -> Vec<(&'static str, usize)> {
+    match model {
+        DanceModel::Fact(m) => vec![
+            (
+                "motion embedding + position",
+                m.motion_embed.num_params() + m.motion_pos.num_params(),
+            ),
+            ("motion transformer", m.motion_transformer.num_params()),
+            (
+                "audio embedding + position",
+                m.audio_embed.num_params() + m.audio_pos.num_params(),
+            ),
+            ("audio transformer", m.audio_transformer.num_params()),
+            ("cross-modal transformer", m.cross_transformer.num_params()),
+            ("output", m.output.num_params()),
+        ],
+        DanceModel::Qean(m) => vec![
+            (
+                "motion embedding + position",
+                m.motion_embed.num_params() + m.motion_pos.num_params(),
+            ),
+            ("motion transformer", m.motion_transformer.num_params()),
+            (
+                "audio embedding + position",
+                m.audio_embed.num_params() + m.audio_fusion.num_params() + m.audio_pos.num_params(),
+            ),
+            ("audio transformer", m.audio_transformer.num_params()),
+            ("cross prefix (QRA)", m.cross_prefix.num_params()),
+            ("cross-modal transformer", m.cross_transformer.num_params()),
+            ("output", m.output.num_params()),
+        ],
+    }
+}
+
 /// A printable architecture summary with the per-part parameter counts.
 pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> String {
     let mut s = String::new();
@@ -77,16 +150,7 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
         c.audio_layers,
         c.cross_layers
     );
-    let positions = match (c.position, c.keep_abs_pos) {
-        (PositionKind::Learned, _) => "learned absolute".to_string(),
-        (PositionKind::Rotary, keep) => format!(
-            "rotary (SPE, {:?} pairs, base {}, cross positions {:?}){}",
-            c.rope_pairing,
-            c.rope_base,
-            c.cross_positions,
-            if keep { " + learned absolute" } else { "" }
-        ),
-    };
+    let positions = positions_text(c);
     let _ = writeln!(s, "  positions: {positions}");
     let audio_in = match c.input_fusion {
         InputFusion::Dense => format!("Dense({} → {})", c.audio_dim, c.hidden),
@@ -110,26 +174,7 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
         "  audio  [B, {}, {}] → {} → {} layers",
         c.audio_len, c.audio_dim, audio_in, c.audio_layers
     );
-    let attention = match (c.attention, c.qra_topology) {
-        (AttentionKind::Softmax, _) => "softmax".to_string(),
-        (AttentionKind::Qra, QraTopology::SelfAttention) => {
-            let n = (0..c.cross_layers).filter(|&l| c.layer_uses_qra(l)).count();
-            format!(
-                "QRA in {n} of {} layers (P {}, kernel {}, q/k head dim {}, 2π {}, conv input {:?}, positions {:?})",
-                c.cross_layers,
-                c.qra_periods,
-                c.qra_kernel,
-                c.qra_qk_head_dim(),
-                c.qra_two_pi,
-                c.qra_conv_input,
-                c.qra_positions
-            )
-        }
-        (AttentionKind::Qra, QraTopology::CrossPrefix) => format!(
-            "softmax, after a motion→audio QRA block (P {}, kernel {})",
-            c.qra_periods, c.qra_kernel
-        ),
-    };
+    let attention = attention_text(c);
     let _ = writeln!(
         s,
         "  cross  [B, {}, {}] (motion first) → {} layers, attention: {attention}",
@@ -162,37 +207,7 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
             String::new()
         }
     );
-    let parts: Vec<(&str, usize)> = match model {
-        DanceModel::Fact(m) => vec![
-            (
-                "motion embedding + position",
-                m.motion_embed.num_params() + m.motion_pos.num_params(),
-            ),
-            ("motion transformer", m.motion_transformer.num_params()),
-            (
-                "audio embedding + position",
-                m.audio_embed.num_params() + m.audio_pos.num_params(),
-            ),
-            ("audio transformer", m.audio_transformer.num_params()),
-            ("cross-modal transformer", m.cross_transformer.num_params()),
-            ("output", m.output.num_params()),
-        ],
-        DanceModel::Qean(m) => vec![
-            (
-                "motion embedding + position",
-                m.motion_embed.num_params() + m.motion_pos.num_params(),
-            ),
-            ("motion transformer", m.motion_transformer.num_params()),
-            (
-                "audio embedding + position",
-                m.audio_embed.num_params() + m.audio_fusion.num_params() + m.audio_pos.num_params(),
-            ),
-            ("audio transformer", m.audio_transformer.num_params()),
-            ("cross prefix (QRA)", m.cross_prefix.num_params()),
-            ("cross-modal transformer", m.cross_transformer.num_params()),
-            ("output", m.output.num_params()),
-        ],
-    };
+    let parts = parts_of(model);
     let _ = writeln!(s, "parameters: {}", group_digits(model.num_params()));
     for (name, n) in parts.into_iter().filter(|(_, n)| *n > 0) {
         let _ = writeln!(s, "  {name:<28} {:>13}", group_digits(n));

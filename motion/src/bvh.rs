@@ -168,14 +168,23 @@ impl BvhMotion {
     }
 }
 
-/// Parse BVH text; positions are divided by `unit_scale` (100 for centimetre files).
-pub fn parse(text: &str, unit_scale: f64) -> std::result::Result<BvhMotion, String> {
-    let mut tokens = text.split_whitespace().peekable();
-    let mut next = |what: &str| {
-        tokens
+/// Whitespace-separated BVH tokens; running out is an error naming what was expected.
+struct Tokens<'a>(std::str::SplitWhitespace<'a>);
+
+impl<'a> Tokens<'a> {
+    fn next(&mut self, what: &str) -> std::result::Result<&'a str, String> {
+        self.0
             .next()
             .ok_or_else(|| format!("unexpected end of file reading {what}"))
-    };
+    }
+}
+
+/// The HIERARCHY section: joints (parent, offset, channels) in file order, and their names.
+fn parse_hierarchy(
+    tokens: &mut Tokens,
+    unit_scale: f64,
+) -> std::result::Result<(Vec<JointDef>, Vec<String>), String> {
+    let mut next = |what: &str| tokens.next(what);
     if next("HIERARCHY")? != "HIERARCHY" {
         return Err("missing HIERARCHY".into());
     }
@@ -257,6 +266,12 @@ pub fn parse(text: &str, unit_scale: f64) -> std::result::Result<BvhMotion, Stri
             other => return Err(format!("unexpected token '{other}' in HIERARCHY")),
         }
     }
+    Ok((joints, names))
+}
+
+/// The MOTION header: frame count and frame time.
+fn parse_motion_header(tokens: &mut Tokens) -> std::result::Result<(usize, f64), String> {
+    let mut next = |what: &str| tokens.next(what);
     if next("MOTION")? != "MOTION" {
         return Err("missing MOTION".into());
     }
@@ -273,46 +288,64 @@ pub fn parse(text: &str, unit_scale: f64) -> std::result::Result<BvhMotion, Stri
         return Err("missing 'Frame Time:'".into());
     }
     let frame_time: f64 = next("frame time")?.parse().map_err(|_| "bad frame time")?;
+    Ok((frames, frame_time))
+}
+
+/// Joint positions of one frame from its channel values (positions divided by `unit_scale`).
+fn frame_positions(
+    joints: &[JointDef],
+    values: &[f64],
+    unit_scale: f64,
+) -> std::result::Result<Vec<[f64; 3]>, String> {
+    let mut k = 0;
+    let mut global: Vec<Mat3> = Vec::with_capacity(joints.len());
+    let mut pos: Vec<[f64; 3]> = Vec::with_capacity(joints.len());
+    for j in joints {
+        let mut local = crate::rotation::IDENTITY;
+        let mut p = j.offset;
+        for ch in &j.channels {
+            let v = values[k];
+            k += 1;
+            let rad = v.to_radians();
+            match ch.as_str() {
+                "Xposition" => p[0] = v / unit_scale,
+                "Yposition" => p[1] = v / unit_scale,
+                "Zposition" => p[2] = v / unit_scale,
+                "Xrotation" => local = matmul(&local, &axis_angle_to_matrix([rad, 0.0, 0.0])),
+                "Yrotation" => local = matmul(&local, &axis_angle_to_matrix([0.0, rad, 0.0])),
+                "Zrotation" => local = matmul(&local, &axis_angle_to_matrix([0.0, 0.0, rad])),
+                other => return Err(format!("unknown channel '{other}'")),
+            }
+        }
+        if j.parent < 0 {
+            global.push(local);
+            pos.push(p);
+        } else {
+            let pj = j.parent as usize;
+            let o = mat_vec(&global[pj], j.offset);
+            pos.push([pos[pj][0] + o[0], pos[pj][1] + o[1], pos[pj][2] + o[2]]);
+            global.push(matmul(&global[pj], &local));
+        }
+    }
+    Ok(pos)
+}
+
+/// Parse BVH text; positions are divided by `unit_scale` (100 for centimetre files).
+pub fn parse(text: &str, unit_scale: f64) -> std::result::Result<BvhMotion, String> {
+    let mut tokens = Tokens(text.split_whitespace());
+    let (joints, names) = parse_hierarchy(&mut tokens, unit_scale)?;
+    let (frames, frame_time) = parse_motion_header(&mut tokens)?;
     let nch: usize = joints.iter().map(|j| j.channels.len()).sum();
     let mut positions = Vec::with_capacity(frames * joints.len());
     let mut values = vec![0.0f64; nch];
     for f in 0..frames {
         for v in values.iter_mut() {
-            *v = next("motion data")?
+            *v = tokens
+                .next("motion data")?
                 .parse()
                 .map_err(|_| format!("bad number in frame {f}"))?;
         }
-        let mut k = 0;
-        let mut global: Vec<Mat3> = Vec::with_capacity(joints.len());
-        let mut pos: Vec<[f64; 3]> = Vec::with_capacity(joints.len());
-        for j in &joints {
-            let mut local = crate::rotation::IDENTITY;
-            let mut p = j.offset;
-            for ch in &j.channels {
-                let v = values[k];
-                k += 1;
-                let rad = v.to_radians();
-                match ch.as_str() {
-                    "Xposition" => p[0] = v / unit_scale,
-                    "Yposition" => p[1] = v / unit_scale,
-                    "Zposition" => p[2] = v / unit_scale,
-                    "Xrotation" => local = matmul(&local, &axis_angle_to_matrix([rad, 0.0, 0.0])),
-                    "Yrotation" => local = matmul(&local, &axis_angle_to_matrix([0.0, rad, 0.0])),
-                    "Zrotation" => local = matmul(&local, &axis_angle_to_matrix([0.0, 0.0, rad])),
-                    other => return Err(format!("unknown channel '{other}'")),
-                }
-            }
-            if j.parent < 0 {
-                global.push(local);
-                pos.push(p);
-            } else {
-                let pj = j.parent as usize;
-                let o = mat_vec(&global[pj], j.offset);
-                pos.push([pos[pj][0] + o[0], pos[pj][1] + o[1], pos[pj][2] + o[2]]);
-                global.push(matmul(&global[pj], &local));
-            }
-        }
-        positions.extend(pos);
+        positions.extend(frame_positions(&joints, &values, unit_scale)?);
     }
     Ok(BvhMotion {
         parents: joints.iter().map(|j| j.parent).collect(),

@@ -123,92 +123,74 @@ fn floor_of(p: &Preview) -> f64 {
     p.joints.iter().map(|q| q[1]).fold(f64::MAX, f64::min)
 }
 
-/// A contact sheet: `cols × rows` key frames evenly spaced in time, those on a music beat outlined in orange,
-/// and a timeline of mean joint speed with the beats and the key frames marked.
-pub fn contact_sheet(p: &Preview, cols: usize, rows: usize) -> Canvas {
-    let (pw, ph) = (200usize, 240usize);
-    let header = 34usize;
-    let strip = 150usize;
-    let width = cols * pw;
-    let height = header + rows * ph + strip;
-    let mut c = Canvas::new(width, height, WHITE);
-    let frames = p.frames();
-    let secs = frames as f64 / p.fps;
-    let title = format!("{}   {} FRAMES, {:.1} S", p.title, frames, secs);
-    c.text(8, 8, &title, 2, INK);
-    let legend = "BLUE LEFT  RED RIGHT  ORANGE = MUSIC BEAT";
-    c.text(
-        width as i64 - Canvas::text_width(legend, 1) - 8,
-        24,
-        legend,
-        1,
-        GREY,
-    );
-    if frames == 0 {
-        return c;
-    }
-    let cam = Camera::fit(p, pw as f64 - 20.0, ph as f64 - 40.0);
-    let floor = floor_of(p);
-    let n = cols * rows;
-    let keys: Vec<usize> = (0..n)
-        .map(|k| ((k as f64 + 0.5) * frames as f64 / n as f64) as usize)
-        .map(|t| t.min(frames - 1))
-        .collect();
-    for (k, &t) in keys.iter().enumerate() {
-        let (x0, y0) = ((k % cols) * pw, header + (k / cols) * ph);
-        let on_beat = p.near_beat(t, 2);
-        if on_beat {
-            c.fill_rect(
-                x0 as i64 + 2,
-                y0 as i64 + 2,
-                pw as i64 - 4,
-                ph as i64 - 4,
-                HIGHLIGHT,
-            );
-            c.rect(
-                x0 as i64 + 2,
-                y0 as i64 + 2,
-                pw as i64 - 4,
-                ph as i64 - 4,
-                3,
-                ORANGE,
-            );
-        } else {
-            c.rect(
-                x0 as i64 + 2,
-                y0 as i64 + 2,
-                pw as i64 - 4,
-                ph as i64 - 4,
-                1,
-                LIGHT,
-            );
-        }
-        draw_pose(
-            &mut c,
-            &cam,
-            p.frame(t),
-            x0 as f64 + 10.0,
-            y0 as f64 + 30.0,
-            floor,
+/// One key frame of the contact sheet: the pose at frame `t` in a `size` panel at `origin`, outlined in
+/// orange on a music beat, labelled with its frame and time (and SEED inside the seed).
+fn key_frame_panel(
+    c: &mut Canvas,
+    p: &Preview,
+    cam: &Camera,
+    floor: f64,
+    t: usize,
+    (x0, y0): (usize, usize),
+    (pw, ph): (usize, usize),
+) {
+    let on_beat = p.near_beat(t, 2);
+    if on_beat {
+        c.fill_rect(
+            x0 as i64 + 2,
+            y0 as i64 + 2,
+            pw as i64 - 4,
+            ph as i64 - 4,
+            HIGHLIGHT,
         );
-        let label = format!("F{t} {:.2}S", t as f64 / p.fps);
-        c.text(x0 as i64 + 8, y0 as i64 + 8, &label, 1, INK);
-        if t < p.seed_frames {
-            c.text(x0 as i64 + pw as i64 - 40, y0 as i64 + 8, "SEED", 1, GREY);
-        }
-        if on_beat {
-            c.text(
-                x0 as i64 + pw as i64 - 40,
-                y0 as i64 + ph as i64 - 18,
-                "BEAT",
-                1,
-                ORANGE,
-            );
-        }
+        c.rect(
+            x0 as i64 + 2,
+            y0 as i64 + 2,
+            pw as i64 - 4,
+            ph as i64 - 4,
+            3,
+            ORANGE,
+        );
+    } else {
+        c.rect(
+            x0 as i64 + 2,
+            y0 as i64 + 2,
+            pw as i64 - 4,
+            ph as i64 - 4,
+            1,
+            LIGHT,
+        );
     }
-    // Timeline: mean joint speed (m/s), beats, key frames.
-    let y0 = (header + rows * ph) as f64 + 20.0;
-    let (x0, w, h) = (40.0, width as f64 - 60.0, strip as f64 - 50.0);
+    draw_pose(
+        c,
+        cam,
+        p.frame(t),
+        x0 as f64 + 10.0,
+        y0 as f64 + 30.0,
+        floor,
+    );
+    let label = format!("F{t} {:.2}S", t as f64 / p.fps);
+    c.text(x0 as i64 + 8, y0 as i64 + 8, &label, 1, INK);
+    if t < p.seed_frames {
+        c.text(x0 as i64 + pw as i64 - 40, y0 as i64 + 8, "SEED", 1, GREY);
+    }
+    if on_beat {
+        c.text(
+            x0 as i64 + pw as i64 - 40,
+            y0 as i64 + ph as i64 - 18,
+            "BEAT",
+            1,
+            ORANGE,
+        );
+    }
+}
+
+/// The contact sheet's timeline from height `top`: mean joint speed (m/s) over time, the seed shaded, music
+/// beats as orange lines, the key frames ticked.
+fn speed_timeline(c: &mut Canvas, p: &Preview, keys: &[usize], top: f64, width: f64, strip: f64) {
+    let frames = p.frames();
+    let y0 = top;
+    let (x0, w, h) = (40.0, width - 60.0, strip - 50.0);
     let speed: Vec<f64> = (1..frames)
         .map(|t| {
             let (a, b) = (p.frame(t - 1), p.frame(t));
@@ -241,7 +223,7 @@ pub fn contact_sheet(p: &Preview, cols: usize, rows: usize) -> Canvas {
         let b = (xt(t as f64 + 1.5), y0 + h - h * v[1] / vmax);
         c.line(a, b, 1.5, INK);
     }
-    for &t in &keys {
+    for &t in keys {
         let x = xt(t as f64);
         c.line((x, y0 + h + 2.0), (x, y0 + h + 8.0), 2.0, GREY);
     }
@@ -255,6 +237,45 @@ pub fn contact_sheet(p: &Preview, cols: usize, rows: usize) -> Canvas {
     );
     c.text(4, y0 as i64, &format!("{vmax:.1}"), 1, GREY);
     c.text(4, (y0 + h - 8.0) as i64, "M/S", 1, GREY);
+}
+
+/// A contact sheet: `cols × rows` key frames evenly spaced in time, those on a music beat outlined in orange,
+/// and a timeline of mean joint speed with the beats and the key frames marked.
+pub fn contact_sheet(p: &Preview, cols: usize, rows: usize) -> Canvas {
+    let (pw, ph) = (200usize, 240usize);
+    let header = 34usize;
+    let strip = 150usize;
+    let width = cols * pw;
+    let height = header + rows * ph + strip;
+    let mut c = Canvas::new(width, height, WHITE);
+    let frames = p.frames();
+    let secs = frames as f64 / p.fps;
+    let title = format!("{}   {} FRAMES, {:.1} S", p.title, frames, secs);
+    c.text(8, 8, &title, 2, INK);
+    let legend = "BLUE LEFT  RED RIGHT  ORANGE = MUSIC BEAT";
+    c.text(
+        width as i64 - Canvas::text_width(legend, 1) - 8,
+        24,
+        legend,
+        1,
+        GREY,
+    );
+    if frames == 0 {
+        return c;
+    }
+    let cam = Camera::fit(p, pw as f64 - 20.0, ph as f64 - 40.0);
+    let floor = floor_of(p);
+    let n = cols * rows;
+    let keys: Vec<usize> = (0..n)
+        .map(|k| ((k as f64 + 0.5) * frames as f64 / n as f64) as usize)
+        .map(|t| t.min(frames - 1))
+        .collect();
+    for (k, &t) in keys.iter().enumerate() {
+        let origin = ((k % cols) * pw, header + (k / cols) * ph);
+        key_frame_panel(&mut c, p, &cam, floor, t, origin, (pw, ph));
+    }
+    let top = (header + rows * ph) as f64 + 20.0;
+    speed_timeline(&mut c, p, &keys, top, width as f64, strip as f64);
     c
 }
 
