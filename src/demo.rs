@@ -13,7 +13,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
+use qean_config::run::string_override;
+use qean_config::RunConfig;
 use qean_eval::motion_energy::{motion_energy, EnergyReference, MotionEnergy};
 use qean_eval::report::MetricsReport;
 use qean_eval::run_report::RunReport;
@@ -22,8 +24,7 @@ use qean_pipeline::evaluate::{evaluate_run, RunEvalRequest};
 use qean_pipeline::generate::{self, GenerateOptions, SeedSource};
 use qean_synth::{self as synth, RealTrack, SynthOptions};
 use qean_train::checkpoint::Checkpoint;
-use qean_train::run_config::string_override;
-use qean_train::{ProgressMode, RunConfig};
+use qean_train::ProgressMode;
 
 /// A file shipped inside the binary.
 struct Asset {
@@ -410,13 +411,7 @@ fn dance(
         qean_eval::run_report::SeedStart::Zero,
         ck,
     )?;
-    let pb = ProgressBar::new(frames as u64);
-    pb.set_style(
-        ProgressStyle::with_template(&format!(
-            "[demo] dance {name} {{bar:30}} {{pos}}/{{len}} frames {{per_sec}} [eta {{eta}}]"
-        ))
-        .expect("valid template"),
-    );
+    let pb = qean_train::progress::bar(frames as u64, &format!("[demo] dance {name}"), "frames");
     let written = generate::generate(
         ck,
         &[song],

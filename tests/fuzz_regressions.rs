@@ -166,7 +166,7 @@ fn config_loader_survives_mutations_and_regressions() {
     exercise("config", &seeds, 2000, |input| {
         no_panic("config", input, || {
             std::fs::write(&path, input).unwrap();
-            if let Err(e) = qean_train::RunConfig::load(&path, &[]) {
+            if let Err(e) = qean_config::RunConfig::load(&path, &[]) {
                 assert!(e.to_string().contains("c.toml"), "{e}");
             }
             let _ = qean_train::sweep::plan(&path, Some(&dir.path().join("out")), &[]);

@@ -12,11 +12,12 @@ use burn::nn::{Linear, LinearConfig};
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::windows::{Batch, SequenceSet, AUDIO_DIM};
+use qean_config::RunConfig;
 use qean_models::autoregress::{SampleOptions, SampleRequest};
 use qean_models::model::DanceGenerator;
 use qean_train::checkpoint::{self, Checkpoint};
 use qean_train::family::{self, read_family_state, Family, StepContext};
-use qean_train::{train_family, ProgressMode, RunConfig, Start, TrainOptions};
+use qean_train::{train_family, ProgressMode, Start, TrainOptions};
 
 #[derive(Module, Debug)]
 struct Toy {
@@ -166,7 +167,7 @@ fn a_toy_family_trains_resumes_exactly_and_samples_through_the_trainer() {
     qean_synth::generate(&data, &synth).unwrap();
     let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
     let overrides = [
-        qean_train::run_config::string_override("data.dir", &data.to_string_lossy()),
+        qean_config::run::string_override("data.dir", &data.to_string_lossy()),
         "train.steps=6".into(),
         "train.batch_size=2".into(),
         "train.checkpoint_every=2".into(),

@@ -16,9 +16,9 @@ use burn::tensor::module::attention;
 use burn::tensor::ops::AttentionModuleOptions;
 use burn::tensor::{Device, Tensor};
 
-use crate::config::AttnScale;
 use crate::init::glorot_dense;
 use crate::spe::RotaryTables;
+use qean_config::model::AttnScale;
 
 /// Configuration of [`Attention`].
 #[derive(Config, Debug)]

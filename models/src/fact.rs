@@ -14,10 +14,10 @@ use burn::module::Module;
 use burn::nn::Linear;
 use burn::tensor::{Device, Tensor};
 
-use crate::config::{AttnScale, ModelConfig};
 use crate::init::{glorot_dense, truncated_normal_dense};
 use crate::position::{PositionEmbedding, PositionEmbeddingConfig};
 use crate::transformer::{BlockConfig, StackContext, Transformer, TransformerConfig};
+use qean_config::model::{AttnScale, ModelConfig};
 
 /// mint's FACT hyperparameters (defaults: the fact_v5_deeper_t10_cm12 config).
 #[derive(Config, Debug)]

@@ -8,12 +8,12 @@ use std::path::{Path, PathBuf};
 use burn::module::Module;
 use burn::tensor::Device;
 
-use crate::config::{
+use crate::input_fusion::QuaternionFusionConfig;
+use crate::model::DanceModel;
+use qean_config::model::{
     load_model_config, AttentionKind, ConfigError, InputFusion, ModelConfig, PositionKind,
     QraConvInput, QraQkProj, QraTopology,
 };
-use crate::input_fusion::QuaternionFusionConfig;
-use crate::model::DanceModel;
 
 /// What `inspect` reports.
 #[derive(Clone, Debug)]
@@ -132,8 +132,8 @@ fn parts_of(model: &DanceModel) -> Vec<(&'static str, usize)> {
 pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> String {
     let mut s = String::new();
     let arch = match c.arch {
-        crate::config::Arch::Fact => "FACT (mint)",
-        crate::config::Arch::Qean => "QEAN",
+        qean_config::model::Arch::Fact => "FACT (mint)",
+        qean_config::model::Arch::Qean => "QEAN",
     };
     let from = path
         .map(|p| format!(" from {}", p.display()))
@@ -197,8 +197,8 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
         "  score scale {:?} (1/sqrt({})), dropout {}{}",
         c.attn_scale,
         match c.attn_scale {
-            crate::config::AttnScale::Hidden => c.hidden,
-            crate::config::AttnScale::Head => c.head_dim(),
+            qean_config::model::AttnScale::Hidden => c.hidden,
+            qean_config::model::AttnScale::Head => c.head_dim(),
         },
         c.dropout,
         if c.dropout > 0.0 {
@@ -273,7 +273,7 @@ pub fn formula_param_count(c: &ModelConfig) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{Arch, QraDk, QraLayers};
+    use qean_config::model::{Arch, QraDk, QraLayers};
 
     fn count(c: &ModelConfig) -> usize {
         DanceModel::new(c, &Device::flex()).num_params()

@@ -3,19 +3,17 @@
 //! et al.), with QEAN's SPE (rotary positions) and QRA (quaternion rotary attention).
 //!
 //! Entry points:
-//! - [`config::load_model_config`] / [`config::load_merged_table`]: the `[model]` table of a run
-//!   config (TOML, `extends` chains, unknown keys rejected with file and line);
-//! - [`DanceModel::new`]: the model (FACT or QEAN) a [`ModelConfig`] describes; `forward(motion, audio)`;
+//! - the `[model]` table of a run config lives in qean-config (`qean_config::model`, no Burn);
+//! - [`DanceModel::new`]: the model (FACT or QEAN) a `ModelConfig` describes; `forward(motion, audio)`;
 //! - [`loss::motion_loss`]: L2 on the first 20 output tokens;
 //! - [`DanceModel::save_weights`] / [`DanceModel::load_weights`]: burnpack files;
 //! - [`inspect::inspect`]: summary and exact parameter count for `qean inspect`;
-//! - [`backend::device`]: `flex | ndarray | wgpu` by name.
+//! - [`backend::device`]: the device of a `Backend` (`flex | ndarray | wgpu`);
+//! - [`sampler::sample`] over [`autoregress::autoregress`]: the autoregressive sampler.
 
 pub mod attention;
 pub mod autoregress;
 pub mod backend;
-/// The `[model]` schema lives in qean-config (no Burn); re-exported under its old path.
-pub use qean_config::model as config;
 pub mod cross_prefix;
 pub mod fact;
 pub mod feed_forward;
@@ -37,7 +35,6 @@ pub mod transformer;
 #[cfg(test)]
 pub(crate) mod testing;
 
-pub use config::{ConfigError, ModelConfig};
 pub use fact::{Fact, FactConfig};
 pub use model::{DanceGenerator, DanceModel};
 pub use qean::{ModelOutput, Qean, QeanConfig};

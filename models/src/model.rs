@@ -6,9 +6,9 @@ use std::path::{Path, PathBuf};
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
 
-use crate::config::{Arch, ModelConfig};
 use crate::fact::{Fact, FactConfig};
 use crate::qean::{ModelOutput, Qean, QeanConfig};
+use qean_config::model::{Arch, ModelConfig};
 
 /// What the sampler needs from a model: one window in, every output token out.
 pub trait DanceGenerator {
@@ -37,7 +37,7 @@ impl DanceModel {
     pub fn new(config: &ModelConfig, device: &Device) -> DanceModel {
         match config.arch {
             Arch::Fact => DanceModel::Fact(FactConfig::from(config).init(device)),
-            Arch::Qean => DanceModel::Qean(QeanConfig::new(config.clone()).init(device)),
+            Arch::Qean => DanceModel::Qean(QeanConfig::from(config).init(device)),
         }
     }
 
@@ -159,9 +159,9 @@ fn weights_path(path: &Path) -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{AttentionKind, PositionKind};
     use crate::testing::max_abs_diff;
     use burn::tensor::Distribution;
+    use qean_config::model::{AttentionKind, PositionKind};
 
     #[test]
     fn long_lists_in_errors_are_shortened() {
@@ -190,8 +190,8 @@ mod tests {
         // The sampler's shortcut (last layer for token 0 only) changes no number beyond f64
         // rounding, for FACT and for QEAN with rotary positions, QRA in the last layer or only in
         // the first, a cross-prefix block and per-modality or concatenated positions.
-        use crate::config::{CrossPositions, QraLayers, QraTopology};
         use crate::testing::{f64_normal, to_f64};
+        use qean_config::model::{CrossPositions, QraLayers, QraTopology};
         let device = Device::flex();
         let qean = tiny(Arch::Qean);
         let configs = [

@@ -190,9 +190,10 @@ pub fn read_safetensors(path: &Path) -> Result<(Vec<NamedParam>, HashMap<String,
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{Arch, AttentionKind, PositionKind};
-    use crate::{DanceModel, ModelConfig};
+    use crate::DanceModel;
     use burn::tensor::Device;
+    use qean_config::model::{Arch, AttentionKind, PositionKind};
+    use qean_config::ModelConfig;
 
     fn tiny(arch: Arch) -> ModelConfig {
         ModelConfig {

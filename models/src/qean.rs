@@ -16,10 +16,6 @@ use burn::module::Module;
 use burn::nn::{Dropout, DropoutConfig, Linear};
 use burn::tensor::{Device, Tensor};
 
-use crate::config::{
-    AttentionKind, CrossPositions, DropoutSite, InputFusion, ModelConfig, PositionKind,
-    QraPositions, QraTopology,
-};
 use crate::cross_prefix::{CrossPrefix, CrossPrefixConfig};
 use crate::init::{glorot_dense, truncated_normal_dense};
 use crate::input_fusion::{QuaternionFusion, QuaternionFusionConfig};
@@ -27,6 +23,10 @@ use crate::position::{PositionEmbedding, PositionEmbeddingConfig};
 use crate::qra::{QraConfig, QraPenalty};
 use crate::spe::{RotaryTables, Spe, SpeConfig};
 use crate::transformer::{BlockConfig, StackContext, Transformer, TransformerConfig};
+use qean_config::model::{
+    AttentionKind, CrossPositions, DropoutSite, InputFusion, ModelConfig, PositionKind,
+    QraPositions, QraTopology,
+};
 
 /// Configuration of [`Qean`]: the whole `[model]` table.
 #[derive(Clone, Debug, PartialEq)]
@@ -84,6 +84,12 @@ struct QeanOptions {
     qra_positions: QraPositions,
     lambda_omega: f64,
     lambda_theta: f64,
+}
+
+impl From<&ModelConfig> for QeanConfig {
+    fn from(c: &ModelConfig) -> Self {
+        QeanConfig { model: c.clone() }
+    }
 }
 
 impl QeanConfig {
@@ -210,23 +216,24 @@ impl Qean {
         self.run(motion, audio, true).prediction
     }
 
-    fn run(&self, motion: Tensor<3>, audio: Tensor<3>, first_only: bool) -> ModelOutput {
-        let [_, lm, _] = motion.dims();
-        let [_, la, _] = audio.dims();
-        let mut penalties: Vec<QraPenalty> = Vec::new();
-
-        // Motion encoder: positions 0..Lm.
-        let m = self.motion_embed.forward(motion.clone());
+    /// The motion encoder (positions 0..Lm): embedding, positions, dropout, transformer.
+    fn encode_motion(&self, motion: Tensor<3>) -> Tensor<3> {
+        let lm = motion.dims()[1];
+        let m = self.motion_embed.forward(motion);
         let m = self.embed_dropout.forward(match &self.motion_pos {
             Some(p) => p.forward(m),
             None => m,
         });
-        let m_tables = self.tables(&Spe::range(lm), &m);
-        let (m, _) = self
-            .motion_transformer
-            .forward(m, m_tables.encoder_context());
+        let tables = self.tables(&Spe::range(lm), &m);
+        self.motion_transformer
+            .forward(m, tables.encoder_context())
+            .0
+    }
 
-        // Audio encoder: positions 0..La.
+    /// The audio encoder (positions 0..La): dense embedding or the quaternion fusion of [audio | motion]
+    /// frames (eq. 25), positions, dropout, transformer.
+    fn encode_audio(&self, audio: Tensor<3>, motion: Tensor<3>) -> Tensor<3> {
+        let la = audio.dims()[1];
         let a = match (&self.audio_embed, &self.audio_fusion) {
             (Some(dense), _) => dense.forward(audio),
             (None, Some(fusion)) => fusion.forward(audio, motion),
@@ -236,42 +243,64 @@ impl Qean {
             Some(p) => p.forward(a),
             None => a,
         });
-        let a_tables = self.tables(&Spe::range(la), &a);
-        let (a, _) = self
-            .audio_transformer
-            .forward(a, a_tables.encoder_context());
+        let tables = self.tables(&Spe::range(la), &a);
+        self.audio_transformer
+            .forward(a, tables.encoder_context())
+            .0
+    }
 
-        // Optional motion-queries-audio QRA block.
-        let m = match &self.cross_prefix {
-            Some(prefix) => {
-                let (mq, ak) = match self.options.qra_positions {
-                    QraPositions::Concatenated => (fractions(lm, lm), fractions(la, la)),
-                    QraPositions::TimeAligned => (fractions(lm, la), fractions(la, la)),
-                };
-                let qm = self.tables(&Spe::range(lm), &m).qra;
-                let qa = self.tables(&Spe::range(la), &a).qra;
-                let (m, p) = prefix.forward(m, a.clone(), (&mq, &ak), (qm.as_ref(), qa.as_ref()));
-                penalties.push(p);
-                m
-            }
-            None => m,
+    /// The optional motion-queries-audio QRA block before the cross-modal stack; its penalty is added
+    /// to `penalties`.
+    fn motion_queries_audio(
+        &self,
+        m: Tensor<3>,
+        a: &Tensor<3>,
+        penalties: &mut Vec<QraPenalty>,
+    ) -> Tensor<3> {
+        let Some(prefix) = &self.cross_prefix else {
+            return m;
         };
+        let (lm, la) = (m.dims()[1], a.dims()[1]);
+        let (mq, ak) = match self.options.qra_positions {
+            QraPositions::Concatenated => (fractions(lm, lm), fractions(la, la)),
+            QraPositions::TimeAligned => (fractions(lm, la), fractions(la, la)),
+        };
+        let qm = self.tables(&Spe::range(lm), &m).qra;
+        let qa = self.tables(&Spe::range(la), a).qra;
+        let (m, p) = prefix.forward(m, a.clone(), (&mq, &ak), (qm.as_ref(), qa.as_ref()));
+        penalties.push(p);
+        m
+    }
 
-        // Cross-modal stack over [motion | audio].
-        let x = Tensor::cat(vec![m, a], 1);
-        let rope_positions: Vec<f64> = match self.options.cross_positions {
+    /// Positions of the cross-modal stack's tokens [motion | audio]: for the rotary tables, and for QRA.
+    fn cross_positions(&self, lm: usize, la: usize) -> (Vec<f64>, Vec<f64>) {
+        let rope: Vec<f64> = match self.options.cross_positions {
             CrossPositions::PerModality => {
                 Spe::range(lm).into_iter().chain(Spe::range(la)).collect()
             }
             CrossPositions::Concatenated => Spe::range(lm + la),
         };
-        let qra_positions: Vec<f64> = match self.options.qra_positions {
+        let qra: Vec<f64> = match self.options.qra_positions {
             QraPositions::Concatenated => fractions(lm + la, lm + la),
             QraPositions::TimeAligned => fractions(lm, la)
                 .into_iter()
                 .chain(fractions(la, la))
                 .collect(),
         };
+        (rope, qra)
+    }
+
+    fn run(&self, motion: Tensor<3>, audio: Tensor<3>, first_only: bool) -> ModelOutput {
+        let [_, lm, _] = motion.dims();
+        let [_, la, _] = audio.dims();
+        let mut penalties: Vec<QraPenalty> = Vec::new();
+        let m = self.encode_motion(motion.clone());
+        let a = self.encode_audio(audio, motion);
+        let m = self.motion_queries_audio(m, &a, &mut penalties);
+
+        // Cross-modal stack over [motion | audio].
+        let x = Tensor::cat(vec![m, a], 1);
+        let (rope_positions, qra_positions) = self.cross_positions(lm, la);
         let x_tables = self.tables(&rope_positions, &x);
         let ctx = StackContext {
             rope: x_tables.head.as_ref(),

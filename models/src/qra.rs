@@ -23,10 +23,10 @@ use burn::tensor::activation::{relu, softmax};
 use burn::tensor::{Device, Tensor, TensorCreationOptions, TensorData};
 
 use crate::attention::{merge_heads, score_scale, split_heads};
-use crate::config::{AttnScale, QraConvInput, QraDk, QraInit, QraQkProj};
 use crate::init::glorot_dense;
 use crate::quaternion_linear::{QuaternionLinear, QuaternionLinearConfig};
 use crate::spe::RotaryTables;
+use qean_config::model::{AttnScale, QraConvInput, QraDk, QraInit, QraQkProj};
 
 /// Configuration of [`Qra`].
 #[derive(Config, Debug)]
@@ -123,6 +123,18 @@ pub struct QraSide<'a> {
     pub positions: &'a [f64],
     /// Rotary tables for the q/k head width, when SPE is on.
     pub rope: Option<&'a RotaryTables>,
+}
+
+/// What [`Qra::probabilities`] computes for one query/key pair.
+pub struct QraAttention {
+    /// Attention probabilities [B, H, N, M], after dropout.
+    pub probs: Tensor<4>,
+    /// Values [B, H, M, d_v].
+    pub values: Tensor<4>,
+    /// Frequencies and phases of the query side.
+    pub query: FrequencyPhase,
+    /// Frequencies and phases of the key side.
+    pub key: FrequencyPhase,
 }
 
 impl QraConfig {
@@ -276,19 +288,14 @@ impl Qra {
 
     /// Queries from `query` tokens attend to `key` tokens (N ≠ M allowed).
     pub fn forward_cross(&self, query: QraSide, key: QraSide) -> (Tensor<3>, QraPenalty) {
-        let (probs, v, fq, fk) = self.probabilities(query, key);
-        let heads = probs.matmul(v);
-        let penalty = penalty(&fq, &fk);
+        let a = self.probabilities(query, key);
+        let heads = a.probs.matmul(a.values);
+        let penalty = penalty(&a.query, &a.key);
         (self.output.forward(merge_heads(heads)), penalty)
     }
 
-    /// Attention probabilities [B, H, N, M] (after dropout), values [B, H, M, d_v], and the
-    /// frequencies/phases of both sides.
-    pub fn probabilities(
-        &self,
-        query: QraSide,
-        key: QraSide,
-    ) -> (Tensor<4>, Tensor<4>, FrequencyPhase, FrequencyPhase) {
+    /// Attention probabilities, values and the frequencies/phases of both sides.
+    pub fn probabilities(&self, query: QraSide, key: QraSide) -> QraAttention {
         let [_, n, c] = query.x.dims();
         let m_keys = key.x.dims()[1];
         assert_eq!(
@@ -323,8 +330,12 @@ impl Qra {
         let qc = quaternion_copies(q, alpha, true, 1.0 / self.periods as f64);
         let kc = quaternion_copies(k, beta, false, 1.0);
         let scores = qc.matmul(kc.swap_dims(2, 3)).mul_scalar(self.scale);
-        let probs = self.dropout.forward(softmax(scores, 3));
-        (probs, v, fq, fk)
+        QraAttention {
+            probs: self.dropout.forward(softmax(scores, 3)),
+            values: v,
+            query: fq,
+            key: fk,
+        }
     }
 
     /// q [B, N, H·d_k], k [B, M, H·d_k], v [B, M, C]; per-head layout of q/k is
@@ -448,7 +459,7 @@ mod tests {
             rope: None,
         };
         let centred = |q: &Qra| {
-            let l = q.probabilities(side(), side()).0.log();
+            let l = q.probabilities(side(), side()).probs.log();
             let mean = l.clone().mean_dim(3);
             to_vec(l - mean)
         };
@@ -592,7 +603,7 @@ mod tests {
             positions: &pos,
             rope: None,
         };
-        let (p0, ..) = base.probabilities(side(), side());
+        let p0 = base.probabilities(side(), side()).probs;
         let (h, p) = (2, 1);
         let mut moved = base.clone();
         let mut bias = vec![0.0; heads * periods];
@@ -602,7 +613,7 @@ mod tests {
             [heads * periods],
             &device,
         )));
-        let (p1, ..) = moved.probabilities(side(), side());
+        let p1 = moved.probabilities(side(), side()).probs;
         for head in 0..heads {
             let diff = max_abs_diff(p0.clone().narrow(1, head, 1), p1.clone().narrow(1, head, 1));
             if head == h {

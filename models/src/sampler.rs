@@ -62,9 +62,10 @@ pub fn sample<M: DanceGenerator>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{Arch, AttentionKind, PositionKind};
-    use crate::{DanceModel, ModelConfig};
+    use crate::DanceModel;
     use qean_aistpp::windows::WindowSpec;
+    use qean_config::model::{Arch, AttentionKind, PositionKind};
+    use qean_config::ModelConfig;
     use qean_motion::motion::Layout;
 
     fn tiny() -> ModelConfig {

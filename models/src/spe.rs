@@ -10,7 +10,7 @@ use burn::config::Config;
 use burn::module::Module;
 use burn::tensor::{DType, Device, Tensor, TensorCreationOptions, TensorData};
 
-use crate::config::RopePairing;
+use qean_config::model::RopePairing;
 
 /// Configuration of [`Spe`].
 #[derive(Config, Debug)]

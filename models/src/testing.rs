@@ -3,8 +3,8 @@
 
 use burn::module::{Module, ModuleMapper, Param};
 
-use crate::config::{Arch, ModelConfig};
 use burn::tensor::{DType, Device, Distribution, Tensor, TensorCreationOptions, TensorData};
+use qean_config::model::{Arch, ModelConfig};
 
 /// Creation options for f64 tensors on `device`.
 pub fn f64_options(device: &Device) -> TensorCreationOptions {

@@ -9,10 +9,10 @@ use burn::nn::{Dropout, DropoutConfig, LayerNorm, LayerNormConfig};
 use burn::tensor::{Device, Tensor};
 
 use crate::attention::{Attention, AttentionConfig};
-use crate::config::AttnScale;
 use crate::feed_forward::{FeedForward, FeedForwardConfig};
 use crate::qra::{Qra, QraConfig, QraPenalty};
 use crate::spe::RotaryTables;
+use qean_config::model::AttnScale;
 
 /// Configuration of one [`Block`].
 #[derive(Config, Debug)]

@@ -8,9 +8,10 @@ use std::time::Instant;
 use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Device, Tensor, TensorData};
+use qean_config::ModelConfig;
 use qean_models::inspect::{formula_param_count, inspect};
 use qean_models::loss::motion_loss;
-use qean_models::{DanceModel, ModelConfig};
+use qean_models::DanceModel;
 
 fn preset(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -89,7 +90,7 @@ fn batch(c: &ModelConfig, batch: usize, device: &Device) -> (Tensor<3>, Tensor<3
 /// Trains on one batch; returns (initial loss, final loss, steps, seconds). Losses are measured
 /// without dropout (`valid()`), training runs with the preset's dropout.
 fn overfit(name: &str) -> (f64, f64, usize, f64) {
-    let config = qean_models::config::load_model_config(&preset(name)).unwrap();
+    let config = qean_config::model::load_model_config(&preset(name)).unwrap();
     let device = Device::flex().autodiff();
     device.seed(7);
     let mut model = DanceModel::new(&config, &device);

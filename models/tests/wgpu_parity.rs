@@ -10,9 +10,10 @@ use std::path::{Path, PathBuf};
 
 use burn::module::{Module, ModuleVisitor, Param};
 use burn::tensor::{Device, Tensor, TensorData};
-use qean_models::config::load_model_config;
+use qean_config::model::load_model_config;
+use qean_config::ModelConfig;
 use qean_models::loss::motion_loss;
-use qean_models::{backend, DanceModel, ModelConfig};
+use qean_models::{backend, DanceModel};
 
 const TOLERANCE: f64 = 1e-4;
 

@@ -6,7 +6,6 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use indicatif::{ProgressBar, ProgressStyle};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::feature_cache;
 use qean_eval::config::{value_name, EvalConfig, MetricsMode, MusicBeatSource};
@@ -233,7 +232,7 @@ fn protocol_sequences(ds: &Dataset) -> anyhow::Result<Vec<String>> {
 fn sample_requests(
     ds: &Dataset,
     pairs: &[(String, String, String)],
-    config: &qean_train::RunConfig,
+    config: &qean_config::RunConfig,
     seed_start: SeedStart,
 ) -> anyhow::Result<(Vec<SampleRequest>, Vec<usize>)> {
     let (layout, seed_frames) = (config.layout(), config.model.motion_len);
@@ -268,7 +267,7 @@ fn sample_requests(
 /// The sampler's options: the request's overrides, else the run's recipe.
 fn sample_options(
     req: &RunEvalRequest,
-    config: &qean_train::RunConfig,
+    config: &qean_config::RunConfig,
 ) -> anyhow::Result<SampleOptions> {
     let s = &req.sampling;
     let r = &config.recipe;
@@ -302,13 +301,10 @@ fn sample_dances(
     let backend = req.sampling.backend.unwrap_or(ck.config.train.backend);
     let device = qean_models::backend::device(backend).map_err(anyhow::Error::msg)?;
     let model = ck.load_model(&device)?;
-    let pb = ProgressBar::new(req.max_frames as u64);
-    pb.set_style(
-        ProgressStyle::with_template(&format!(
-            "sampling {} sequences {{bar:30}} {{pos}}/{{len}} frames {{per_sec}} [eta {{eta}}]",
-            requests.len()
-        ))
-        .expect("valid template"),
+    let pb = qean_train::progress::bar(
+        req.max_frames as u64,
+        &format!("sampling {} sequences", requests.len()),
+        "frames",
     );
     let dances = qean_models::sampler::sample(&model, &device, requests, opts, |done, total| {
         pb.set_length(total as u64);
@@ -411,11 +407,11 @@ fn chance_baselines(
 }
 
 /// The row label of a checkpoint's reports.
-fn label(config: &qean_train::RunConfig, step: u64) -> String {
+fn label(config: &qean_config::RunConfig, step: u64) -> String {
     let m = &config.model;
     match m.arch {
-        qean_models::config::Arch::Fact => format!("FACT step {step}"),
-        qean_models::config::Arch::Qean => format!(
+        qean_config::model::Arch::Fact => format!("FACT step {step}"),
+        qean_config::model::Arch::Qean => format!(
             "QEAN ({:?} positions, {:?} attention) step {step}",
             m.position, m.attention
         )

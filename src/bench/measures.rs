@@ -7,6 +7,7 @@ use burn::module::Module;
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_aistpp::windows::AUDIO_DIM;
 use qean_audio::{features_for_file, FeatureOptions};
+use qean_config::RunConfig;
 use qean_eval::synthetic::SyntheticSet;
 use qean_eval::{evaluate, EvalConfig, Sequence};
 use qean_models::autoregress::{SampleOptions, SampleRequest};
@@ -14,7 +15,6 @@ use qean_models::sampler::sample;
 use qean_models::DanceModel;
 use qean_train::fact_qean::update;
 use qean_train::trainer::adam;
-use qean_train::RunConfig;
 use serde::{Deserialize, Serialize};
 
 use super::report::Entry;

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::bail;
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::feature_cache;
 use qean_audio::{self as audio, FeatureOptions, Resampler};
@@ -68,12 +68,7 @@ fn options(name: &str, a: &FeaturesArgs) -> FeatureOptions {
 }
 
 fn bar(n: usize) -> ProgressBar {
-    let pb = ProgressBar::new(n as u64);
-    pb.set_style(
-        ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed_precise} eta {eta}]")
-            .expect("valid template"),
-    );
-    pb
+    qean_train::progress::bar(n as u64, "", "")
 }
 
 pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {

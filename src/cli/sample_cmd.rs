@@ -4,7 +4,6 @@ use std::path::PathBuf;
 
 use anyhow::bail;
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use qean_models::autoregress::AudioPad;
 use qean_pipeline::generate::{self, GenerateOptions, SeedSource};
 use qean_train::checkpoint;
@@ -124,13 +123,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         render: a.render,
         backend: a.backend.unwrap_or(ck.config.train.backend),
     };
-    let pb = ProgressBar::new(a.frames as u64);
-    pb.set_style(
-        ProgressStyle::with_template(
-            "{bar:30} {pos}/{len} frames {per_sec} [{elapsed_precise} eta {eta}]",
-        )
-        .expect("valid template"),
-    );
+    let pb = qean_train::progress::bar(a.frames as u64, "", "frames");
     let written = generate::generate(&ck, &songs, &seed, &opts, &a.out, |done, total| {
         pb.set_length(total as u64);
         pb.set_position(done as u64);

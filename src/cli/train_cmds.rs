@@ -6,9 +6,10 @@ use std::sync::Arc;
 
 use anyhow::{anyhow, bail};
 use clap::Args;
+use qean_config::run::string_override;
+use qean_config::RunConfig;
 use qean_train::checkpoint::{self, Checkpoint};
-use qean_train::run_config::string_override;
-use qean_train::{sweep, ProgressMode, RunConfig, TrainOptions};
+use qean_train::{sweep, ProgressMode, TrainOptions};
 
 /// Train FACT or QEAN from a TOML run config (SPEC §5): random 240-frame windows of the train split,
 /// L2 loss on the first 20 output tokens, Adam with the configured step schedule. Writes R/config.toml

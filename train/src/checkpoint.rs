@@ -22,8 +22,8 @@ use qean_io::error::{Error, Result};
 use qean_models::DanceModel;
 use serde::{Deserialize, Serialize};
 
-use crate::run_config::RunConfig;
 use crate::run_dir;
+use qean_config::run::RunConfig;
 
 pub const MODEL_FILE: &str = "model.bpk";
 pub const OPTIMIZER_FILE: &str = "optimizer.bpk";
@@ -116,7 +116,7 @@ impl Checkpoint {
 
     /// Refuses to continue these weights as another model: the error names the checkpoint and the
     /// first differing `[model]` line.
-    pub fn check_model(&self, model: &qean_models::ModelConfig) -> Result<()> {
+    pub fn check_model(&self, model: &qean_config::ModelConfig) -> Result<()> {
         if self.config.model == *model {
             return Ok(());
         }

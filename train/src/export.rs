@@ -6,9 +6,10 @@ use std::path::Path;
 
 use burn::module::Module;
 use burn::tensor::Device;
+use qean_config::ModelConfig;
 use qean_io::error::{Error, Result};
 use qean_models::params::{named_parameters, parameter_shapes, params_hash, write_safetensors};
-use qean_models::{DanceModel, ModelConfig};
+use qean_models::DanceModel;
 
 use crate::checkpoint::Checkpoint;
 
@@ -220,7 +221,7 @@ rewrites it); a test checks that it lists every tensor of each preset with its s
     for (file, what) in DOCUMENTED_PRESETS {
         let path = configs.join(file);
         let config =
-            qean_models::config::load_model_config(&path).map_err(|e| Error::msg(e.to_string()))?;
+            qean_config::model::load_model_config(&path).map_err(|e| Error::msg(e.to_string()))?;
         let count = DanceModel::new(&config, &Device::flex()).num_params();
         s.push_str(&format!(
             "\n## `configs/{file}`: {what}, {} parameters\n\n",

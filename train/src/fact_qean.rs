@@ -13,7 +13,7 @@ use qean_models::DanceModel;
 
 use crate::checkpoint::Checkpoint;
 use crate::family::{Family, StepContext};
-use crate::run_config::RunConfig;
+use qean_config::run::RunConfig;
 
 /// FACT or QEAN, as the run config's `[model]` table says.
 #[derive(Debug, Clone, Copy, Default)]

@@ -16,7 +16,7 @@ use qean_aistpp::windows::{Batch, SequenceSet, WindowSpec};
 use qean_io::error::{Error, Result};
 
 use crate::checkpoint::Checkpoint;
-use crate::run_config::RunConfig;
+use qean_config::run::RunConfig;
 
 /// The file a family's extra checkpoint state is written to, beside the weights.
 pub const FAMILY_STATE_FILE: &str = "family.json";

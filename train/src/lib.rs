@@ -13,13 +13,10 @@ pub mod plot;
 pub mod progress;
 pub mod recipe;
 pub mod resume;
-pub use qean_config::run as run_config;
 pub mod run_dir;
-pub use qean_config::schedule;
 pub mod sweep;
 pub mod trainer;
 
 pub use checkpoint::Checkpoint;
 pub use family::Family;
-pub use run_config::RunConfig;
 pub use trainer::{train, train_family, ProgressMode, Start, TrainOptions, TrainOutcome};

@@ -16,6 +16,23 @@ pub enum ProgressMode {
     Quiet,
 }
 
+/// A progress bar in the style every command shares: `PREFIX [bar] done/total MSG rate [elapsed eta]`.
+/// `prefix` names the work (may be empty), `msg` the unit or the current item.
+pub fn bar(len: u64, prefix: &str, msg: &str) -> ProgressBar {
+    let pb = ProgressBar::new(len);
+    pb.set_style(
+        ProgressStyle::with_template(
+            "{prefix}{bar:30} {pos}/{len} {msg} {per_sec} [{elapsed_precise} eta {eta}]",
+        )
+        .expect("valid template"),
+    );
+    if !prefix.is_empty() {
+        pb.set_prefix(format!("{prefix} "));
+    }
+    pb.set_message(msg.to_string());
+    pb
+}
+
 /// Shows one run's progress.
 pub struct Reporter {
     mode: ProgressMode,
@@ -32,18 +49,7 @@ impl Reporter {
             m => m,
         };
         let bar = (mode == ProgressMode::Auto).then(|| {
-            let pb = ProgressBar::new(total);
-            pb.set_style(
-                ProgressStyle::with_template(
-                    "{prefix}{bar:30} {pos}/{len} {msg} {per_sec} [{elapsed_precise} eta {eta}]",
-                )
-                .expect("valid template"),
-            );
-            pb.set_prefix(if label.is_empty() {
-                String::new()
-            } else {
-                format!("{label} ")
-            });
+            let pb = bar(total, label, "");
             pb.set_position(done);
             pb.reset_eta();
             pb

@@ -18,8 +18,8 @@ use qean_motion::motion::Layout;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::run_config::RunConfig;
 use qean_config::recipe::{Predict, RecipeConfig, RolloutMode};
+use qean_config::run::RunConfig;
 
 /// The window lengths the trainer draws for `config`: the model's, with the rollout lead frames
 /// in front.

@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use qean_io::error::{Error, Result};
 
 use crate::checkpoint::{self, Checkpoint};
-use crate::run_config::RunConfig;
 use crate::run_dir;
+use qean_config::run::RunConfig;
 
 /// Where a run starts.
 #[derive(Debug, Clone, PartialEq)]

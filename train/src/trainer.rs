@@ -22,8 +22,8 @@ use crate::metrics_log::{self, MetricsLog, Row};
 pub use crate::progress::ProgressMode;
 use crate::progress::Reporter;
 pub use crate::resume::Start;
-use crate::run_config::RunConfig;
 use crate::run_dir::{self, RunLock};
+use qean_config::run::RunConfig;
 
 /// Options of one `train` call.
 #[derive(Debug, Clone)]

@@ -23,7 +23,7 @@ fn weights_doc_lists_every_tensor_of_every_preset() {
         "docs/weights.md is out of date: QEAN_BLESS=1 cargo test --workspace --test weights_doc"
     );
     for (file, _) in DOCUMENTED_PRESETS {
-        let config = qean_models::config::load_model_config(&configs.join(file)).unwrap();
+        let config = qean_config::model::load_model_config(&configs.join(file)).unwrap();
         let section = doc
             .split(&format!("## `configs/{file}`"))
             .nth(1)
