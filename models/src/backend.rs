@@ -5,11 +5,13 @@
 
 use burn::tensor::Device;
 
+use crate::error::Error;
+
 /// Backend names `device` accepts, and the default one.
 pub use qean_config::{Backend, BACKENDS, DEFAULT_BACKEND};
 
 /// The device of a backend; a one-line error for a backend this build lacks or one that cannot start.
-pub fn device(backend: Backend) -> Result<Device, String> {
+pub fn device(backend: Backend) -> Result<Device, Error> {
     match backend {
         Backend::Flex => Ok(Device::flex()),
         #[allow(deprecated)] // Still the independent CPU backend to cross-check flex against.
@@ -19,8 +21,8 @@ pub fn device(backend: Backend) -> Result<Device, String> {
 }
 
 /// The device of a backend named on the command line; a one-line error for an unknown name too.
-pub fn device_named(name: &str) -> Result<Device, String> {
-    device(name.parse()?)
+pub fn device_named(name: &str) -> Result<Device, Error> {
+    device(name.parse().map_err(Error::Backend)?)
 }
 
 /// Makes flex Burn's default device unless `BURN_DEVICE` names one. Burn puts some tensors on
@@ -35,12 +37,14 @@ pub fn prefer_cpu_default_device() {
 }
 
 #[cfg(not(feature = "wgpu"))]
-fn wgpu_device() -> Result<Device, String> {
-    Err("backend `wgpu` is not in this build: rebuild with `--features wgpu`".into())
+fn wgpu_device() -> Result<Device, Error> {
+    Err(Error::Backend(
+        "backend `wgpu` is not in this build: rebuild with `--features wgpu`".into(),
+    ))
 }
 
 #[cfg(feature = "wgpu")]
-fn wgpu_device() -> Result<Device, String> {
+fn wgpu_device() -> Result<Device, Error> {
     use burn::tensor::{DeviceKind, Tensor};
     // The device is lazy: run one tiny op so a missing adapter or driver fails here, with one
     // line, instead of panicking at the first real tensor.
@@ -51,9 +55,9 @@ fn wgpu_device() -> Result<Device, String> {
     });
     match started {
         Ok((device, 4.0)) => Ok(device),
-        Ok((_, probe)) => Err(format!(
+        Ok((_, probe)) => Err(Error::Backend(format!(
             "backend `wgpu` started but computed 1+1+1+1 = {probe}"
-        )),
+        ))),
         Err(panic) => {
             let why = panic
                 .downcast_ref::<String>()
@@ -61,7 +65,9 @@ fn wgpu_device() -> Result<Device, String> {
                 .or_else(|| panic.downcast_ref::<&str>().copied())
                 .unwrap_or("unknown error");
             let why = why.lines().next().unwrap_or(why);
-            Err(format!("backend `wgpu` cannot start: {why}"))
+            Err(Error::Backend(format!(
+                "backend `wgpu` cannot start: {why}"
+            )))
         }
     }
 }
@@ -82,13 +88,13 @@ mod tests {
 
     #[test]
     fn unknown_and_missing_backends_are_one_line_errors() {
-        let e = device_named("cuda").unwrap_err();
+        let e = device_named("cuda").unwrap_err().to_string();
         assert!(
             e.contains("cuda") && e.contains("flex") && !e.contains('\n'),
             "{e}"
         );
         if !cfg!(feature = "wgpu") {
-            let e = device(Backend::Wgpu).unwrap_err();
+            let e = device(Backend::Wgpu).unwrap_err().to_string();
             assert!(e.contains("--features wgpu") && !e.contains('\n'), "{e}");
         }
     }

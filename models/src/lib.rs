@@ -15,6 +15,7 @@ pub mod attention;
 pub mod autoregress;
 pub mod backend;
 pub mod cross_prefix;
+pub mod error;
 pub mod fact;
 pub mod feed_forward;
 pub mod init;
@@ -35,6 +36,7 @@ pub mod transformer;
 #[cfg(test)]
 pub(crate) mod testing;
 
+pub use error::Error;
 pub use fact::{Fact, FactConfig};
 pub use model::{DanceGenerator, DanceModel};
 pub use qean::{ModelOutput, Qean, QeanConfig};

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
 
+use crate::error::Error;
 use crate::fact::{Fact, FactConfig};
 use crate::qean::{ModelOutput, Qean, QeanConfig};
 use qean_config::model::{Arch, ModelConfig};
@@ -63,28 +64,34 @@ impl DanceModel {
 
     /// Writes the weights to a burnpack file (atomically: a scratch file renamed into place).
     /// A path without extension gets `.bpk`; the path written is returned.
-    pub fn save_weights(&self, path: &Path) -> Result<PathBuf, String> {
+    pub fn save_weights(&self, path: &Path) -> Result<PathBuf, Error> {
         let path = weights_path(path);
-        self.clone()
-            .save_file(&path)
-            .map_err(|e| format!("{}: cannot save weights: {e}", path.display()))?;
+        self.clone().save_file(&path).map_err(|e| Error::Weights {
+            path: path.clone(),
+            message: format!("cannot save weights: {e}"),
+        })?;
         Ok(path)
     }
 
     /// Loads weights saved by [`save_weights`](Self::save_weights) from a model of the same
     /// config; a missing file or a mismatched parameter set is an error naming the file.
-    pub fn load_weights(self, path: &Path) -> Result<Self, String> {
+    pub fn load_weights(self, path: &Path) -> Result<Self, Error> {
         let path = weights_path(path);
         if !path.is_file() {
-            return Err(format!("{}: no such weights file", path.display()));
+            return Err(Error::Weights {
+                path,
+                message: "no such weights file".into(),
+            });
         }
         self.try_load_file(&path).map_err(|e| {
             let e = e.to_string();
             let first = shorten_lists(e.lines().next().unwrap_or(""), 3);
-            format!(
-                "{}: cannot load weights (written by another model or config?): {first}",
-                path.display()
-            )
+            Error::Weights {
+                path: path.clone(),
+                message: format!(
+                    "cannot load weights (written by another model or config?): {first}"
+                ),
+            }
         })
     }
 }
@@ -274,11 +281,13 @@ mod tests {
         };
         let e = DanceModel::new(&other, &device)
             .load_weights(&path)
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("fact.bpk") && !e.contains('\n'), "{e}");
         let e = DanceModel::new(&tiny(Arch::Fact), &device)
             .load_weights(&dir.path().join("missing.bpk"))
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("missing.bpk"), "{e}");
     }
 

@@ -299,7 +299,7 @@ fn sample_dances(
     opts: &SampleOptions,
 ) -> anyhow::Result<Vec<Vec<f32>>> {
     let backend = req.sampling.backend.unwrap_or(ck.config.train.backend);
-    let device = qean_models::backend::device(backend).map_err(anyhow::Error::msg)?;
+    let device = qean_models::backend::device(backend)?;
     let model = ck.load_model(&device)?;
     let pb = qean_train::progress::bar(
         req.max_frames as u64,

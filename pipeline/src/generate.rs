@@ -147,7 +147,8 @@ pub fn generate(
     std::fs::write(&probe, b"")
         .map_err(|e| Error::at(out, format!("output directory is not writable: {e}")))?;
     let _ = std::fs::remove_file(&probe);
-    let device = qean_models::backend::device(opts.backend).map_err(Error::msg)?;
+    let device =
+        qean_models::backend::device(opts.backend).map_err(|e| Error::msg(e.to_string()))?;
     let model = ck.load_model(&device)?;
     let sample_opts = SampleOptions {
         frames: opts.frames,

@@ -384,7 +384,8 @@ impl<'f, F: Family> Session<'f, F> {
         resume: Option<&Checkpoint>,
     ) -> Result<Self> {
         let run_dir = run_dir.to_path_buf();
-        let plain = qean_models::backend::device(config.train.backend).map_err(Error::msg)?;
+        let plain = qean_models::backend::device(config.train.backend)
+            .map_err(|e| Error::msg(e.to_string()))?;
         let device = plain.clone().autodiff();
         let total = config.train.steps;
         let seed = config.train.seed;
