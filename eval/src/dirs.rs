@@ -9,7 +9,7 @@ use anyhow::{bail, Context};
 use serde::{Deserialize, Serialize};
 
 use crate::config::{value_name, EvalConfig, MusicBeatSource};
-use crate::io::{load_joints_dir, read_beats_json, write_json_atomic};
+use crate::io::{load_joints_dir, read_beats_json, sequence_name, write_json_atomic};
 use crate::protocol::{evaluate, music_key};
 use crate::report::{render_markdown, MetricsReport};
 
@@ -63,16 +63,6 @@ pub fn read_pairing(path: &Path) -> anyhow::Result<HashMap<String, String>> {
         map.insert(sequence_name(generated).to_string(), music.to_string());
     }
     Ok(map)
-}
-
-/// A file name as a sequence name: no directory, no motion extension, no `.joints` suffix.
-fn sequence_name(file: &str) -> &str {
-    let base = file.rsplit('/').next().unwrap_or(file);
-    let stem = [".npy", ".pkl", ".bvh"]
-        .iter()
-        .find_map(|e| base.strip_suffix(e))
-        .unwrap_or(base);
-    stem.strip_suffix(".joints").unwrap_or(stem)
 }
 
 /// Sets each generated sequence's music from the pairing; a row naming no loaded sequence is an error.

@@ -43,6 +43,17 @@ pub fn read_joints(path: &Path, root: FkRoot) -> Result<Vec<Frame>> {
         .collect())
 }
 
+/// The sequence name of a motion file: no directory, no motion extension (`.npy`, `.pkl`, `.bvh`), no
+/// `.joints` suffix (as `qean sample` writes).
+pub fn sequence_name(file: &str) -> &str {
+    let base = file.rsplit('/').next().unwrap_or(file);
+    let stem = [".npy", ".pkl", ".bvh"]
+        .iter()
+        .find_map(|e| base.strip_suffix(e))
+        .unwrap_or(base);
+    stem.strip_suffix(".joints").unwrap_or(stem)
+}
+
 /// Every motion (`.npy`, `.pkl`, `.bvh`) in `dir`, sorted by name, named by file stem (a `.joints` suffix,
 /// as `qean sample` writes, is dropped). A `<name>.music` file beside a motion names its music (one line:
 /// a music ID or an audio file's stem).
@@ -67,11 +78,11 @@ pub fn load_joints_dir(dir: &Path, root: FkRoot) -> Result<Vec<Sequence>> {
     paths.sort();
     let mut seqs: Vec<Sequence> = Vec::with_capacity(paths.len());
     for p in &paths {
-        let stem = p
-            .file_stem()
+        let file = p
+            .file_name()
             .and_then(|s| s.to_str())
             .ok_or_else(|| Error::file(p, "file name is not UTF-8"))?;
-        let name = stem.strip_suffix(".joints").unwrap_or(stem);
+        let name = sequence_name(file);
         if seqs.iter().any(|s| s.name == name) {
             warn!(file = %p.display(), "ignored: another file of sequence {name} was loaded");
             continue;

@@ -62,38 +62,46 @@ impl DanceModel {
         }
     }
 
-    /// Writes the weights to a burnpack file (atomically: a scratch file renamed into place).
-    /// A path without extension gets `.bpk`; the path written is returned.
+    /// Writes the weights to a burnpack file ([`save_weights`]).
     pub fn save_weights(&self, path: &Path) -> Result<PathBuf, Error> {
-        let path = weights_path(path);
-        self.clone().save_file(&path).map_err(|e| Error::Weights {
-            path: path.clone(),
-            message: format!("cannot save weights: {e}"),
-        })?;
-        Ok(path)
+        save_weights(self, path)
     }
 
-    /// Loads weights saved by [`save_weights`](Self::save_weights) from a model of the same
-    /// config; a missing file or a mismatched parameter set is an error naming the file.
+    /// Loads weights saved by [`save_weights`] from a model of the same config ([`load_weights`]).
     pub fn load_weights(self, path: &Path) -> Result<Self, Error> {
-        let path = weights_path(path);
-        if !path.is_file() {
-            return Err(Error::Weights {
-                path,
-                message: "no such weights file".into(),
-            });
-        }
-        self.try_load_file(&path).map_err(|e| {
-            let e = e.to_string();
-            let first = shorten_lists(e.lines().next().unwrap_or(""), 3);
-            Error::Weights {
-                path: path.clone(),
-                message: format!(
-                    "cannot load weights (written by another model or config?): {first}"
-                ),
-            }
-        })
+        load_weights(self, path)
     }
+}
+
+/// Writes any module's weights to a burnpack file (atomically: a scratch file renamed into place).
+/// A path without extension gets `.bpk`; the path written is returned.
+pub fn save_weights<M: Module>(model: &M, path: &Path) -> Result<PathBuf, Error> {
+    let path = weights_path(path);
+    model.clone().save_file(&path).map_err(|e| Error::Weights {
+        path: path.clone(),
+        message: format!("cannot save weights: {e}"),
+    })?;
+    Ok(path)
+}
+
+/// Loads weights saved by [`save_weights`] into a module of the same shape; a missing file or a
+/// mismatched parameter set is an error naming the file.
+pub fn load_weights<M: Module>(model: M, path: &Path) -> Result<M, Error> {
+    let path = weights_path(path);
+    if !path.is_file() {
+        return Err(Error::Weights {
+            path,
+            message: "no such weights file".into(),
+        });
+    }
+    model.try_load_file(&path).map_err(|e| {
+        let e = e.to_string();
+        let first = shorten_lists(e.lines().next().unwrap_or(""), 3);
+        Error::Weights {
+            path: path.clone(),
+            message: format!("cannot load weights (written by another model or config?): {first}"),
+        }
+    })
 }
 
 /// Shortens every `[a, b, c, ...]` list in `text` to its first `keep` items and a count, so that an

@@ -111,41 +111,22 @@ pub fn read_family_state(checkpoint: &Checkpoint) -> Result<Option<serde_json::V
         .map_err(|e| Error::at(&path, format!("malformed family state: {e}")))
 }
 
-/// The weights file of a path: `.bpk` added when it has no extension.
-fn weights_path(path: &Path) -> PathBuf {
-    if path.extension().is_some() {
-        path.to_path_buf()
-    } else {
-        path.with_extension("bpk")
+/// The trainer's error for a weights file.
+fn weights_error(e: qean_models::Error) -> Error {
+    match e {
+        qean_models::Error::Weights { path, message } => Error::at(path, message),
+        other => Error::msg(other.to_string()),
     }
 }
 
 /// Writes any model's weights to a burnpack file; returns the path written.
 pub fn save_weights<M: Module>(model: &M, path: &Path) -> Result<PathBuf> {
-    let path = weights_path(path);
-    model
-        .clone()
-        .save_file(&path)
-        .map_err(|e| Error::at(&path, format!("cannot save weights: {e}")))?;
-    Ok(path)
+    qean_models::model::save_weights(model, path).map_err(weights_error)
 }
 
 /// Loads weights saved by [`save_weights`] into a model of the same shape.
 pub fn load_weights<M: Module>(model: M, path: &Path) -> Result<M> {
-    let path = weights_path(path);
-    if !path.is_file() {
-        return Err(Error::at(&path, "no such weights file"));
-    }
-    model.try_load_file(&path).map_err(|e| {
-        let e = e.to_string();
-        Error::at(
-            &path,
-            format!(
-                "cannot load weights (written by another model or config?): {}",
-                qean_models::model::shorten_lists(e.lines().next().unwrap_or(""), 3)
-            ),
-        )
-    })
+    qean_models::model::load_weights(model, path).map_err(weights_error)
 }
 
 /// A checkpoint's model for `family`, on `device` (sampling, evaluation).
