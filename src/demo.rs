@@ -279,7 +279,7 @@ fn train_all(
     let mut plans = Vec::new();
     for (name, _, preset) in presets {
         let config = opts.out.join(preset);
-        let wanted = RunConfig::load(&config, &overrides).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let wanted = RunConfig::load(&config, &overrides)?;
         let run_dir = opts.out.join("runs").join(name);
         let resume = qean_train::run_dir::list_checkpoints(&run_dir).is_ok_and(|c| !c.is_empty());
         if resume {

@@ -302,11 +302,11 @@ pub fn run_curves(a: &CurvesArgs) -> anyhow::Result<String> {
             qean_pipeline::curves::evaluate_missing(&d, &a.steps, &template)?;
         }
     }
-    qean_eval::curves::write_curves(&CurvesRequest {
+    Ok(qean_eval::curves::write_curves(&CurvesRequest {
         runs: a.runs.clone(),
         out: a.out.clone(),
         steps: a.steps.clone(),
         title: a.title.clone(),
         tag: a.tag.clone(),
-    })
+    })?)
 }

@@ -61,6 +61,30 @@ fn audio_features_build_without_burn_or_images() {
     });
 }
 
+/// anyhow belongs to the binaries: every library crate returns its own error type.
+#[test]
+fn libraries_have_their_own_error_types() {
+    for package in [
+        "qean-io",
+        "qean-audio",
+        "qean-motion",
+        "qean-render",
+        "qean-aistpp",
+        "qean-synth",
+        "qean-config",
+        "qean-models",
+        "qean-train",
+        "qean-eval",
+        "qean-pipeline",
+    ] {
+        let deps = dependencies(package);
+        assert!(
+            !deps.iter().any(|d| d == "anyhow"),
+            "{package} depends on anyhow"
+        );
+    }
+}
+
 /// No function outside tests is longer than 120 lines, except the pickle VM (one dispatch over
 /// opcodes); tools/longest_functions.py prints the ten longest.
 #[test]

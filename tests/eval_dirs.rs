@@ -13,7 +13,7 @@ use qean_eval::dirs::EvaluationFile;
 
 /// Directory mode as `qean eval --generated A --reference B` runs it.
 fn run(args: &Args) -> anyhow::Result<(EvaluationFile, String)> {
-    qean_eval::dirs::evaluate_dirs(&args.dir_request()?)
+    Ok(qean_eval::dirs::evaluate_dirs(&args.dir_request()?)?)
 }
 use qean_eval::{Frame, MetricsMode, MetricsReport};
 

@@ -3,7 +3,8 @@
 //! Every field has a default, and the defaults are mint's FACT (SPEC §4.1–4.2,
 //! `configs/fact_v5_deeper_t10_cm12.config`), so an empty `[model]` table is mint's model.
 //! Every [DECISION] of SPEC §4 and §10 is a field here; field names follow the option names
-//! SPEC uses (`attn_scale`, `rope_pairing`, `qra_layers`, ...).
+//! SPEC uses (`attn_scale`, `rope_pairing`, `qra_layers`, ...); SPE's rotary settings sit in
+//! `[model.rope]` and QRA's in `[model.qra]`, without the prefix (`[model.qra] layers`).
 //!
 //! A config file may name a parent with a top-level `extends = "relative/path.toml"`. The parent
 //! is loaded first (recursively, relative to the file that names it) and the child's tables are
@@ -43,7 +44,7 @@ pub enum AttnScale {
 pub enum PositionKind {
     /// Learned absolute embeddings added after the input dense layers (FACT).
     Learned,
-    /// SPE: rotary q/k in every attention layer; absolute embeddings removed unless `keep_abs_pos`.
+    /// SPE: rotary q/k in every attention layer; absolute embeddings removed unless `rope.keep_abs_pos`.
     Rotary,
 }
 
@@ -83,9 +84,9 @@ pub enum CrossPositions {
 pub enum QraLayers {
     /// Every cross-modal layer.
     All,
-    /// The first `qra_layers_k` layers.
+    /// The first `layers_k` layers.
     FirstK,
-    /// The last `qra_layers_k` layers.
+    /// The last `layers_k` layers.
     LastK,
 }
 
@@ -126,7 +127,7 @@ pub enum QraDk {
 pub enum QraQkProj {
     /// The bias-free fused q/k/v dense layer of FACT.
     Dense,
-    /// q and k from quaternion linear layers (implies `qra_dk = round_up`); v from a dense layer.
+    /// q and k from quaternion linear layers (implies `dk = round_up`); v from a dense layer.
     Quaternion,
 }
 
@@ -177,6 +178,144 @@ pub enum DropoutSite {
     Embedding,
 }
 
+/// `[model.rope]`: SPE's rotary position settings (SPEC §4.3–4.4).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RopeOptions {
+    /// Rotary pair convention (`rope_pairing` in SPEC).
+    pub pairing: RopePairing,
+    /// Rotary base, 10000 (`rope_base`).
+    pub base: f64,
+    /// Rotary positions of the cross-modal tokens.
+    pub cross_positions: CrossPositions,
+    /// Keep the learned absolute embeddings with `position = rotary`.
+    pub keep_abs_pos: bool,
+}
+
+impl Default for RopeOptions {
+    fn default() -> Self {
+        Self {
+            pairing: RopePairing::Interleaved,
+            base: 10000.0,
+            cross_positions: CrossPositions::PerModality,
+            keep_abs_pos: false,
+        }
+    }
+}
+
+/// `[model.qra]`: quaternion rotary attention's settings (SPEC §4.5–4.6). SPEC spells each as
+/// `qra_<name>`; the old flat `[model]` keys `qra_<name>` are still read (see [`upgrade_legacy_keys`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct QraOptions {
+    /// Period count P (2).
+    pub periods: usize,
+    /// Conv kernel of the ω/θ convs (1 or 3, zero "same" padding).
+    pub kernel: usize,
+    /// Which cross-modal layers use QRA.
+    pub layers: QraLayers,
+    /// k for `layers = first_k | last_k`.
+    pub layers_k: usize,
+    /// QRA placement.
+    pub topology: QraTopology,
+    /// What the ω/θ convs read.
+    pub conv_input: QraConvInput,
+    /// q/k width per head.
+    pub dk: QraDk,
+    /// q/k projection inside QRA.
+    pub qk_proj: QraQkProj,
+    /// QRA's normalised positions.
+    pub positions: QraPositions,
+    /// Multiply ω by 2π (QEAN eq. 26); the Quatformer code omits it.
+    pub two_pi: bool,
+    /// Initialisation of the ω/θ convs.
+    pub init: QraInit,
+    /// Weight of Quatformer's ω smoothness penalty mean((ω_{n+1} − ω_n)²).
+    pub lambda_omega: f64,
+    /// Weight of Quatformer's phase penalty mean(θ²).
+    pub lambda_theta: f64,
+}
+
+impl Default for QraOptions {
+    fn default() -> Self {
+        Self {
+            periods: 2,
+            kernel: 1,
+            layers: QraLayers::All,
+            layers_k: 0,
+            topology: QraTopology::SelfAttention,
+            conv_input: QraConvInput::Normed,
+            dk: QraDk::Floor,
+            qk_proj: QraQkProj::Dense,
+            positions: QraPositions::Concatenated,
+            two_pi: true,
+            init: QraInit::Default,
+            lambda_omega: 0.0,
+            lambda_theta: 0.0,
+        }
+    }
+}
+
+/// The flat `[model]` keys of configs written before `[model.rope]` and `[model.qra]` existed,
+/// and where each lives now: (old key, table, new key).
+const LEGACY_KEYS: [(&str, &str, &str); 17] = [
+    ("rope_pairing", "rope", "pairing"),
+    ("rope_base", "rope", "base"),
+    ("cross_positions", "rope", "cross_positions"),
+    ("keep_abs_pos", "rope", "keep_abs_pos"),
+    ("qra_periods", "qra", "periods"),
+    ("qra_kernel", "qra", "kernel"),
+    ("qra_layers", "qra", "layers"),
+    ("qra_layers_k", "qra", "layers_k"),
+    ("qra_topology", "qra", "topology"),
+    ("qra_conv_input", "qra", "conv_input"),
+    ("qra_dk", "qra", "dk"),
+    ("qra_qk_proj", "qra", "qk_proj"),
+    ("qra_positions", "qra", "positions"),
+    ("qra_two_pi", "qra", "two_pi"),
+    ("qra_init", "qra", "init"),
+    ("qra_lambda_omega", "qra", "lambda_omega"),
+    ("qra_lambda_theta", "qra", "lambda_theta"),
+];
+
+/// Where an old flat `[model]` key lives now, e.g. `qra_layers` → `("qra", "layers")`.
+pub fn legacy_key(key: &str) -> Option<(&'static str, &'static str)> {
+    LEGACY_KEYS
+        .iter()
+        .find(|(old, _, _)| *old == key)
+        .map(|&(_, table, new)| (table, new))
+}
+
+/// Moves old flat keys of a whole config table's `[model]` (`qra_layers = ...`) into their
+/// nested tables (`[model.qra] layers = ...`), so run directories and configs written before
+/// the nesting keep working. Returns the keys moved; a key given both ways is an error naming
+/// the new spelling.
+pub fn upgrade_legacy_keys(table: &mut toml::Table) -> Result<Vec<&'static str>, String> {
+    let Some(toml::Value::Table(model)) = table.get_mut("model") else {
+        return Ok(Vec::new());
+    };
+    let mut moved = Vec::new();
+    for (old, sub, new) in LEGACY_KEYS {
+        let Some(value) = model.remove(old) else {
+            continue;
+        };
+        let entry = model
+            .entry(sub)
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        let toml::Value::Table(nested) = entry else {
+            return Err(format!("[model]: `{sub}` must be a table"));
+        };
+        if nested.contains_key(new) {
+            return Err(format!(
+                "[model]: `{old}` and `{sub}.{new}` are both set; `{old}` is the old spelling of `[model.{sub}] {new}`, keep one"
+            ));
+        }
+        nested.insert(new.to_string(), value);
+        moved.push(old);
+    }
+    Ok(moved)
+}
+
 /// The `[model]` table. Defaults are mint's FACT.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -211,44 +350,14 @@ pub struct ModelConfig {
     pub dropout: f64,
     /// Where dropout applies.
     pub dropout_sites: BTreeSet<DropoutSite>,
-    /// Learned absolute or rotary positions.
+    /// Learned absolute or rotary positions (the SPE switch).
     pub position: PositionKind,
-    /// Keep the learned absolute embeddings when `position = rotary`.
-    pub keep_abs_pos: bool,
-    /// Rotary pair convention.
-    pub rope_pairing: RopePairing,
-    /// Rotary base (10000).
-    pub rope_base: f64,
-    /// Rotary positions of the cross-modal tokens.
-    pub cross_positions: CrossPositions,
-    /// Softmax or QRA in the cross-modal stack.
+    /// Rotary settings, `[model.rope]` (used with `position = rotary`).
+    pub rope: RopeOptions,
+    /// Softmax or QRA in the cross-modal stack (the QRA switch).
     pub attention: AttentionKind,
-    /// QRA period count P (2).
-    pub qra_periods: usize,
-    /// QRA conv kernel (1 or 3, zero "same" padding).
-    pub qra_kernel: usize,
-    /// Which cross-modal layers use QRA.
-    pub qra_layers: QraLayers,
-    /// k for `qra_layers = first_k | last_k`.
-    pub qra_layers_k: usize,
-    /// QRA placement.
-    pub qra_topology: QraTopology,
-    /// What the ω/θ convs read.
-    pub qra_conv_input: QraConvInput,
-    /// q/k width per head.
-    pub qra_dk: QraDk,
-    /// q/k projection inside QRA.
-    pub qra_qk_proj: QraQkProj,
-    /// QRA's normalised positions.
-    pub qra_positions: QraPositions,
-    /// Multiply ω by 2π (QEAN eq. 26); the Quatformer code omits it.
-    pub qra_two_pi: bool,
-    /// Initialisation of the ω/θ convs.
-    pub qra_init: QraInit,
-    /// Weight of Quatformer's ω smoothness penalty mean((ω_{n+1} − ω_n)²).
-    pub qra_lambda_omega: f64,
-    /// Weight of Quatformer's phase penalty mean(θ²).
-    pub qra_lambda_theta: f64,
+    /// QRA settings, `[model.qra]` (used with `attention = qra`).
+    pub qra: QraOptions,
     /// Audio-branch input embedding.
     pub input_fusion: InputFusion,
 }
@@ -278,24 +387,9 @@ impl Default for ModelConfig {
             .into_iter()
             .collect(),
             position: PositionKind::Learned,
-            keep_abs_pos: false,
-            rope_pairing: RopePairing::Interleaved,
-            rope_base: 10000.0,
-            cross_positions: CrossPositions::PerModality,
+            rope: RopeOptions::default(),
             attention: AttentionKind::Softmax,
-            qra_periods: 2,
-            qra_kernel: 1,
-            qra_layers: QraLayers::All,
-            qra_layers_k: 0,
-            qra_topology: QraTopology::SelfAttention,
-            qra_conv_input: QraConvInput::Normed,
-            qra_dk: QraDk::Floor,
-            qra_qk_proj: QraQkProj::Dense,
-            qra_positions: QraPositions::Concatenated,
-            qra_two_pi: true,
-            qra_init: QraInit::Default,
-            qra_lambda_omega: 0.0,
-            qra_lambda_theta: 0.0,
+            qra: QraOptions::default(),
             input_fusion: InputFusion::Dense,
         }
     }
@@ -315,7 +409,7 @@ impl ModelConfig {
     /// q/k width per head inside QRA (d_h, or d_h rounded up to a multiple of 4).
     pub fn qra_qk_head_dim(&self) -> usize {
         let d = self.head_dim();
-        match (self.qra_dk, self.qra_qk_proj) {
+        match (self.qra.dk, self.qra.qk_proj) {
             (QraDk::Floor, QraQkProj::Dense) => d,
             _ => d.div_ceil(4) * 4,
         }
@@ -323,18 +417,18 @@ impl ModelConfig {
 
     /// Whether learned absolute position embeddings are present.
     pub fn learned_positions(&self) -> bool {
-        self.position == PositionKind::Learned || self.keep_abs_pos
+        self.position == PositionKind::Learned || self.rope.keep_abs_pos
     }
 
     /// Whether cross-modal layer `layer` (0-based) uses QRA as its self-attention.
     pub fn layer_uses_qra(&self, layer: usize) -> bool {
-        if self.attention != AttentionKind::Qra || self.qra_topology != QraTopology::SelfAttention {
+        if self.attention != AttentionKind::Qra || self.qra.topology != QraTopology::SelfAttention {
             return false;
         }
-        match self.qra_layers {
+        match self.qra.layers {
             QraLayers::All => true,
-            QraLayers::FirstK => layer < self.qra_layers_k,
-            QraLayers::LastK => layer + self.qra_layers_k >= self.cross_layers,
+            QraLayers::FirstK => layer < self.qra.layers_k,
+            QraLayers::LastK => layer + self.qra.layers_k >= self.cross_layers,
         }
     }
 
@@ -357,7 +451,7 @@ impl ModelConfig {
             ("audio_len", self.audio_len),
             ("audio_dim", self.audio_dim),
             ("target_len", self.target_len),
-            ("qra_periods", self.qra_periods),
+            ("qra.periods", self.qra.periods),
         ];
         for (key, value) in positive {
             if value == 0 {
@@ -382,26 +476,26 @@ impl ModelConfig {
                 self.head_dim()
             ));
         }
-        if self.rope_base.is_nan() || self.rope_base <= 1.0 {
-            return Err(format!("`rope_base` must be > 1, got {}", self.rope_base));
+        if self.rope.base.is_nan() || self.rope.base <= 1.0 {
+            return Err(format!("`rope.base` must be > 1, got {}", self.rope.base));
         }
-        if self.qra_kernel != 1 && self.qra_kernel != 3 {
+        if self.qra.kernel != 1 && self.qra.kernel != 3 {
             return Err(format!(
-                "`qra_kernel` must be 1 or 3, got {}",
-                self.qra_kernel
+                "`qra.kernel` must be 1 or 3, got {}",
+                self.qra.kernel
             ));
         }
         if self.attention == AttentionKind::Qra && self.qra_qk_head_dim() < 4 {
             return Err("QRA needs at least 4 q/k dims per head".into());
         }
-        if self.qra_layers != QraLayers::All && self.qra_layers_k > self.cross_layers {
+        if self.qra.layers != QraLayers::All && self.qra.layers_k > self.cross_layers {
             return Err(format!(
-                "`qra_layers_k` = {} exceeds `cross_layers` = {}",
-                self.qra_layers_k, self.cross_layers
+                "`qra.layers_k` = {} exceeds `cross_layers` = {}",
+                self.qra.layers_k, self.cross_layers
             ));
         }
-        if self.qra_lambda_omega < 0.0 || self.qra_lambda_theta < 0.0 {
-            return Err("`qra_lambda_omega` and `qra_lambda_theta` must be >= 0".into());
+        if self.qra.lambda_omega < 0.0 || self.qra.lambda_theta < 0.0 {
+            return Err("`qra.lambda_omega` and `qra.lambda_theta` must be >= 0".into());
         }
         if self.input_fusion == InputFusion::Quaternion254 {
             if !self.hidden.is_multiple_of(4) {
@@ -440,14 +534,22 @@ impl ModelConfig {
         Ok(())
     }
 
-    /// The first key whose value differs from `other`'s (as TOML), if any.
+    /// The first key whose value differs from `other`'s (as TOML), as a dotted path (`qra.layers`).
     fn first_difference(&self, other: &Self) -> Option<String> {
         let a = toml::Table::try_from(self).ok()?;
         let b = toml::Table::try_from(other).ok()?;
-        a.iter()
-            .find(|(k, v)| b.get(k.as_str()) != Some(v))
-            .map(|(k, _)| k.clone())
+        first_difference(&a, &b)
     }
+}
+
+fn first_difference(a: &toml::Table, b: &toml::Table) -> Option<String> {
+    a.iter().find_map(|(k, v)| match (v, b.get(k.as_str())) {
+        (toml::Value::Table(x), Some(toml::Value::Table(y))) => {
+            first_difference(x, y).map(|inner| format!("{k}.{inner}"))
+        }
+        (v, other) if other != Some(v) => Some(k.clone()),
+        _ => None,
+    })
 }
 
 /// A config-file error: the file, the line when known, and the problem, on one line.
@@ -537,8 +639,16 @@ fn load_chain(path: &Path, depth: usize, check: &FileCheck) -> Result<toml::Tabl
         .map_err(|e| ConfigError::new(path, None, format!("cannot read: {e}")))?;
     let mut table: toml::Table =
         toml::from_str(&text).map_err(|e| ConfigError::from_toml(path, &text, &e))?;
-    // Checked per file, so the error carries this file's line.
-    check(path, &text)?;
+    // Checked per file, so the error carries this file's line. A file with old flat keys is
+    // checked in its upgraded form, whose lines are not the file's.
+    let moved = upgrade_legacy_keys(&mut table).map_err(|m| ConfigError::new(path, None, m))?;
+    if moved.is_empty() {
+        check(path, &text)?;
+    } else {
+        let upgraded = toml::to_string(&table)
+            .map_err(|e| ConfigError::new(path, None, format!("cannot re-read: {e}")))?;
+        check(path, &upgraded).map_err(|e| ConfigError { line: None, ..e })?;
+    }
     let parent = match table.remove("extends") {
         None => return Ok(table),
         Some(toml::Value::String(rel)) => {
@@ -582,6 +692,8 @@ fn merge_into(base: &mut toml::Table, over: toml::Table) {
 
 /// Extracts and validates `[model]` from a merged table (defaults fill what is absent).
 pub fn model_from_table(table: &toml::Table, path: &Path) -> Result<ModelConfig, ConfigError> {
+    let mut table = table.clone();
+    upgrade_legacy_keys(&mut table).map_err(|m| ConfigError::new(path, None, m))?;
     let model = match table.get("model") {
         None => ModelConfig::default(),
         Some(toml::Value::Table(t)) => t
@@ -702,21 +814,70 @@ mod tests {
     }
 
     #[test]
+    fn nested_qra_and_rope_tables_and_their_old_flat_keys() {
+        let dir = tempfile::tempdir().unwrap();
+        let nested = write(
+            dir.path(),
+            "n.toml",
+            "[model]\narch = \"qean\"\nattention = \"qra\"\n[model.qra]\nlayers = \"last_k\"\nlayers_k = 2\ninit = \"zero\"\n[model.rope]\nbase = 500.0\n",
+        );
+        let want = load_model_config(&nested).unwrap();
+        assert_eq!(
+            (
+                want.qra.layers,
+                want.qra.layers_k,
+                want.qra.init,
+                want.rope.base
+            ),
+            (QraLayers::LastK, 2, QraInit::Zero, 500.0)
+        );
+        // A config (or a run directory's config.toml) written with the flat keys reads the same.
+        let flat = write(
+            dir.path(),
+            "f.toml",
+            "[model]\narch = \"qean\"\nattention = \"qra\"\nqra_layers = \"last_k\"\nqra_layers_k = 2\nqra_init = \"zero\"\nrope_base = 500.0\n",
+        );
+        assert_eq!(load_model_config(&flat).unwrap(), want);
+        // Given both ways: one line naming the new spelling.
+        let both = write(
+            dir.path(),
+            "b.toml",
+            "[model]\nqra_init = \"zero\"\n[model.qra]\ninit = \"small\"\n",
+        );
+        let e = load_model_config(&both).unwrap_err().to_string();
+        assert!(
+            e.contains("qra_init") && e.contains("[model.qra] init"),
+            "{e}"
+        );
+        assert!(!e.contains('\n'), "{e}");
+        // An unknown key inside a nested table still names its file and line.
+        let bad = write(dir.path(), "u.toml", "[model]\n[model.qra]\nperiod = 3\n");
+        let e = load_model_config(&bad).unwrap_err();
+        assert_eq!(e.line, Some(3), "{e}");
+        assert!(e.message.contains("period"), "{e}");
+        // A FACT config with a QRA setting names the nested key.
+        let fact = write(dir.path(), "x.toml", "[model]\n[model.qra]\nkernel = 3\n");
+        let e = load_model_config(&fact).unwrap_err().to_string();
+        assert!(e.contains("`qra.kernel` is a QEAN option"), "{e}");
+    }
+
+    #[test]
     fn qra_layer_selection() {
         let c = ModelConfig {
             arch: Arch::Qean,
             attention: AttentionKind::Qra,
             cross_layers: 5,
-            qra_layers: QraLayers::LastK,
-            qra_layers_k: 2,
+            qra: QraOptions {
+                layers: QraLayers::LastK,
+                layers_k: 2,
+                ..QraOptions::default()
+            },
             ..ModelConfig::default()
         };
         let used: Vec<bool> = (0..5).map(|l| c.layer_uses_qra(l)).collect();
         assert_eq!(used, [false, false, false, true, true]);
-        let c = ModelConfig {
-            qra_layers: QraLayers::FirstK,
-            ..c
-        };
+        let mut c = c;
+        c.qra.layers = QraLayers::FirstK;
         let used: Vec<bool> = (0..5).map(|l| c.layer_uses_qra(l)).collect();
         assert_eq!(used, [true, true, false, false, false]);
     }

@@ -164,7 +164,13 @@ pub fn parse_override(spec: &str) -> Result<(Vec<String>, toml::Value), String> 
         .split_once('=')
         .ok_or_else(|| format!("--set {spec}: expected key.path=value"))?;
     let key = key.trim();
-    let parts: Vec<String> = key.split('.').map(|s| s.trim().to_string()).collect();
+    let mut parts: Vec<String> = key.split('.').map(|s| s.trim().to_string()).collect();
+    // An old flat key (`model.qra_init`) means its nested place (`model.qra.init`).
+    if let [table, field] = parts.as_slice() {
+        if let ("model", Some((sub, new))) = (table.as_str(), crate::model::legacy_key(field)) {
+            parts = vec!["model".into(), sub.into(), new.into()];
+        }
+    }
     if parts.len() < 2 || parts.iter().any(|p| p.is_empty()) {
         return Err(format!(
             "--set {spec}: the key must name a table and a field, e.g. train.steps"
@@ -230,7 +236,9 @@ impl RunConfig {
     }
 
     /// A run config from a merged table (`path` names it in errors).
-    pub fn from_table(table: toml::Table, path: &Path) -> Result<RunConfig, ConfigError> {
+    pub fn from_table(mut table: toml::Table, path: &Path) -> Result<RunConfig, ConfigError> {
+        crate::model::upgrade_legacy_keys(&mut table)
+            .map_err(|m| ConfigError::new(path, None, m))?;
         let config: RunConfig = toml::Value::Table(table)
             .try_into()
             .map_err(|e: toml::de::Error| ConfigError::new(path, None, e.message().trim()))?;
@@ -380,6 +388,35 @@ mod tests {
         // The resolved TOML reads back to the same config.
         let back = write(d.path(), "back.toml", &c.to_toml().unwrap());
         assert_eq!(RunConfig::load(&back, &[]).unwrap(), c);
+    }
+
+    #[test]
+    fn old_flat_qra_keys_in_overrides_and_run_directories() {
+        let d = tempfile::tempdir().unwrap();
+        let p = write(
+            d.path(),
+            "q.toml",
+            "[model]\narch = \"qean\"\nhidden = 64\nheads = 4\nffn = 96\nattention = \"qra\"\n[train]\nsteps = 2\n",
+        );
+        let old = RunConfig::load(&p, &["model.qra_init=zero".into()]).unwrap();
+        let new = RunConfig::load(&p, &["model.qra.init=zero".into()]).unwrap();
+        assert_eq!(old, new);
+        assert_eq!(new.model.qra.init, crate::model::QraInit::Zero);
+        // A run directory's config.toml written before the nesting (flat keys) reads the same.
+        let mut table = toml::Table::try_from(&new).unwrap();
+        let toml::Value::Table(model) = table.get_mut("model").unwrap() else {
+            panic!("model is a table")
+        };
+        let toml::Value::Table(qra) = model.remove("qra").unwrap() else {
+            panic!("qra is a table")
+        };
+        for (k, v) in qra {
+            model.insert(format!("qra_{k}"), v);
+        }
+        let flat = toml::to_string(&table).unwrap();
+        assert!(flat.contains("qra_init = \"zero\""), "{flat}");
+        let back = write(d.path(), "old/config.toml", &flat);
+        assert_eq!(RunConfig::load(&back, &[]).unwrap(), new);
     }
 
     #[test]

@@ -8,7 +8,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context};
+use crate::Error;
 use qean_render::canvas::*;
 
 use crate::run_report::RunReport;
@@ -84,7 +84,7 @@ fn is_run(dir: &Path) -> bool {
 }
 
 /// The run directories named: runs themselves, or directories holding runs (a sweep's output).
-pub fn find_runs(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+pub fn find_runs(paths: &[PathBuf]) -> crate::Result<Vec<PathBuf>> {
     let mut runs = Vec::new();
     for p in paths {
         if is_run(p) {
@@ -92,18 +92,18 @@ pub fn find_runs(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
             continue;
         }
         if !p.is_dir() {
-            bail!("{}: no such run directory", p.display());
+            return Err(Error::file(p, "no such run directory"));
         }
         let mut inner: Vec<PathBuf> = std::fs::read_dir(p)
-            .with_context(|| format!("{}: cannot read", p.display()))?
+            .map_err(|e| Error::file(p, format!("cannot read: {e}")))?
             .filter_map(|e| e.ok().map(|e| e.path()))
             .filter(|d| is_run(d))
             .collect();
         if inner.is_empty() {
-            bail!(
-                "{}: neither a run directory (config.toml, checkpoints/) nor a directory of runs",
-                p.display()
-            );
+            return Err(Error::file(
+                p,
+                "neither a run directory (config.toml, checkpoints/) nor a directory of runs",
+            ));
         }
         inner.sort();
         runs.extend(inner);
@@ -122,7 +122,7 @@ fn eval_step(name: &str, tag: Option<&str>) -> Option<u64> {
 }
 
 /// Reads the evaluation reports of a run (`eval/step-N/`, or `eval/step-N-TAG/`), by step.
-pub fn read_run(dir: &Path, tag: Option<&str>) -> anyhow::Result<RunCurve> {
+pub fn read_run(dir: &Path, tag: Option<&str>) -> crate::Result<RunCurve> {
     let name = dir
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -130,10 +130,9 @@ pub fn read_run(dir: &Path, tag: Option<&str>) -> anyhow::Result<RunCurve> {
     let mut points = Vec::new();
     let eval = dir.join("eval");
     if eval.is_dir() {
-        for e in
-            std::fs::read_dir(&eval).with_context(|| format!("{}: cannot read", eval.display()))?
-        {
-            let e = e?;
+        let cannot_read = |e: std::io::Error| Error::file(&eval, format!("cannot read: {e}"));
+        for e in std::fs::read_dir(&eval).map_err(cannot_read)? {
+            let e = e.map_err(cannot_read)?;
             if eval_step(&e.file_name().to_string_lossy(), tag).is_none() {
                 continue;
             }
@@ -142,9 +141,9 @@ pub fn read_run(dir: &Path, tag: Option<&str>) -> anyhow::Result<RunCurve> {
                 continue;
             }
             let text = std::fs::read_to_string(&path)
-                .with_context(|| format!("{}: cannot read", path.display()))?;
+                .map_err(|e| Error::file(&path, format!("cannot read: {e}")))?;
             let report: RunReport = serde_json::from_str(&text)
-                .with_context(|| format!("{}: not a checkpoint-mode report", path.display()))?;
+                .map_err(|e| Error::file(&path, format!("not a checkpoint-mode report: {e}")))?;
             if let Some(p) = Point::of(&report) {
                 points.push(p);
             }
@@ -454,7 +453,7 @@ pub fn has_report(run: &Path, step: u64, tag: Option<&str>, max_frames: usize) -
 }
 
 /// Reads the runs' reports and writes curves.png, curves.csv and table.md; returns the table.
-pub fn write_curves(a: &CurvesRequest) -> anyhow::Result<String> {
+pub fn write_curves(a: &CurvesRequest) -> crate::Result<String> {
     let dirs = find_runs(&a.runs)?;
     let mut runs = Vec::new();
     for d in &dirs {
@@ -465,13 +464,13 @@ pub fn write_curves(a: &CurvesRequest) -> anyhow::Result<String> {
         runs.push(r);
     }
     if runs.iter().all(|r| r.points.is_empty()) {
-        bail!(
+        return Err(Error::Invalid(format!(
             "no evaluation reports under {} run(s): evaluate checkpoints first (qean eval --run R ..., or --evaluate --data DIR)",
             runs.len()
-        );
+        )));
     }
     std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("{}: cannot create", a.out.display()))?;
+        .map_err(|e| Error::file(&a.out, format!("cannot create: {e}")))?;
     let table = table(&runs);
     qean_io::fsutil::atomic_write(&a.out.join("curves.png"), &figure(&runs, &a.title).to_png())?;
     qean_io::fsutil::atomic_write(&a.out.join("curves.csv"), csv(&runs).as_bytes())?;

@@ -5,7 +5,6 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context};
 use serde::{Deserialize, Serialize};
 
 use crate::config::{value_name, EvalConfig, MusicBeatSource};
@@ -39,9 +38,9 @@ pub struct DirRequest {
 }
 
 /// The rows of a pairing file: generated name (a `.joints`/extension suffix dropped) → music key.
-pub fn read_pairing(path: &Path) -> anyhow::Result<HashMap<String, String>> {
+pub fn read_pairing(path: &Path) -> crate::Result<HashMap<String, String>> {
     let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
+        .map_err(|e| crate::Error::file(path, format!("cannot read: {e}")))?;
     let mut map = HashMap::new();
     for (k, line) in text.lines().enumerate() {
         let line = line.trim();
@@ -50,15 +49,18 @@ pub fn read_pairing(path: &Path) -> anyhow::Result<HashMap<String, String>> {
         }
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
         let [generated, music] = fields[..] else {
-            bail!(
-                "{} line {}: expected two columns `generated,music`, got {:?}",
+            return Err(crate::Error::Invalid(format!(
+                "{} line {}: expected two columns `generated,music`, got {line:?}",
                 path.display(),
-                k + 1,
-                line
-            );
+                k + 1
+            )));
         };
         if generated.is_empty() || music.is_empty() {
-            bail!("{} line {}: an empty column", path.display(), k + 1);
+            return Err(crate::Error::Invalid(format!(
+                "{} line {}: an empty column",
+                path.display(),
+                k + 1
+            )));
         }
         map.insert(sequence_name(generated).to_string(), music.to_string());
     }
@@ -70,13 +72,13 @@ fn apply_pairing(
     generated: &mut [crate::positions::Sequence],
     pairing: &HashMap<String, String>,
     path: &Path,
-) -> anyhow::Result<()> {
+) -> crate::Result<()> {
     for name in pairing.keys() {
         if !generated.iter().any(|s| &s.name == name) {
-            bail!(
-                "{}: pairs {name:?}, which is not among the generated motions",
-                path.display()
-            );
+            return Err(crate::Error::file(
+                path,
+                format!("pairs {name:?}, which is not among the generated motions"),
+            ));
         }
     }
     for s in generated {
@@ -95,14 +97,15 @@ pub struct EvaluationFile {
 
 /// Load, evaluate each configuration, write the JSON (if asked) and return the reports with their
 /// markdown table.
-pub fn evaluate_dirs(req: &DirRequest) -> anyhow::Result<(EvaluationFile, String)> {
+pub fn evaluate_dirs(req: &DirRequest) -> crate::Result<(EvaluationFile, String)> {
     let root = req.root;
-    let mut generated =
-        load_joints_dir(&req.generated, root).context("loading generated motions")?;
+    let mut generated = load_joints_dir(&req.generated, root)
+        .map_err(|e| e.context("loading generated motions"))?;
     if let Some(path) = &req.pairing {
         apply_pairing(&mut generated, &read_pairing(path)?, path)?;
     }
-    let reference = load_joints_dir(&req.reference, root).context("loading reference motions")?;
+    let reference = load_joints_dir(&req.reference, root)
+        .map_err(|e| e.context("loading reference motions"))?;
     let beats: Option<(PathBuf, HashMap<String, Vec<usize>>)> = match (&req.beats, &req.music) {
         (Some(p), _) => Some((p.clone(), read_beats_json(p)?)),
         (None, Some(dir)) => {
@@ -155,10 +158,10 @@ pub fn music_beats(
     dir: &Path,
     keys: impl Iterator<Item = String>,
     source: MusicBeatSource,
-) -> anyhow::Result<HashMap<String, Vec<usize>>> {
+) -> crate::Result<HashMap<String, Vec<usize>>> {
     use qean_audio as audio;
     if !dir.is_dir() {
-        bail!("{}: music directory does not exist", dir.display());
+        return Err(crate::Error::file(dir, "music directory does not exist"));
     }
     let mut ids: Vec<String> = keys.collect();
     ids.sort();

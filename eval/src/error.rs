@@ -31,11 +31,32 @@ pub enum Error {
     File { path: PathBuf, message: String },
     #[error("{0}")]
     Invalid(String),
+    /// What was being done when `inner` happened (e.g. "loading generated motions").
+    #[error("{context}: {inner}")]
+    Context { context: String, inner: Box<Error> },
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
 
+impl From<qean_io::Error> for Error {
+    /// A file-format or I/O error of the layers below (they name the file when they know it).
+    fn from(e: qean_io::Error) -> Self {
+        match e.path {
+            Some(p) => Error::file(p, e.message),
+            None => Error::Invalid(e.message),
+        }
+    }
+}
+
 impl Error {
+    /// This error, prefixed with what was being done.
+    pub fn context(self, context: impl Into<String>) -> Self {
+        Error::Context {
+            context: context.into(),
+            inner: Box::new(self),
+        }
+    }
+
     pub fn file(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
         Error::File {
             path: path.into(),

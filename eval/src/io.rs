@@ -13,10 +13,7 @@ use crate::error::{Error, Result};
 use crate::positions::{Frame, Sequence, N_JOINTS};
 
 fn data_err(e: qean_io::Error) -> Error {
-    match e.path {
-        Some(p) => Error::file(p, e.message),
-        None => Error::Invalid(e.message),
-    }
+    Error::from(e)
 }
 
 /// Joint positions of one motion file. `.npy` of shape (T, 72) is read as flattened joints (as Bailando saves

@@ -5,7 +5,6 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-use anyhow::bail;
 use qean_aistpp::dataset::Dataset;
 use qean_aistpp::names::music_id_of;
 use qean_motion::motion::Motion;
@@ -260,7 +259,7 @@ pub fn pairings(names: &[String], protocol: Protocol) -> Vec<(String, String, St
 pub fn dataset_energy_reference(
     data: &Path,
     root: qean_motion::FkRoot,
-) -> anyhow::Result<EnergyReference> {
+) -> crate::Result<EnergyReference> {
     let ds = Dataset::open(data)?;
     let mut sequences = Vec::new();
     for name in ds.all_sequences()? {
@@ -268,17 +267,17 @@ pub fn dataset_energy_reference(
         sequences.push(frames_of(m.joints(root)));
     }
     if sequences.is_empty() {
-        bail!(
-            "{}: no motions to take the reference speed from",
-            data.display()
-        );
+        return Err(crate::Error::file(
+            data,
+            "no motions to take the reference speed from",
+        ));
     }
     Ok(EnergyReference::fit(sequences.iter().map(Vec::as_slice)))
 }
 
 /// The reference of [`dataset_energy_reference`], cached in `cache` (a JSON file naming the
 /// dataset; recomputed when it names another or cannot be read or written).
-pub fn cached_energy_reference(data: &Path, cache: &Path) -> anyhow::Result<EnergyReference> {
+pub fn cached_energy_reference(data: &Path, cache: &Path) -> crate::Result<EnergyReference> {
     #[derive(Serialize, Deserialize)]
     struct Cached {
         data: PathBuf,

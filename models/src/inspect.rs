@@ -57,13 +57,13 @@ pub fn group_digits(n: usize) -> String {
 
 /// How positions are encoded, in words.
 fn positions_text(c: &ModelConfig) -> String {
-    match (c.position, c.keep_abs_pos) {
+    match (c.position, c.rope.keep_abs_pos) {
         (PositionKind::Learned, _) => "learned absolute".to_string(),
         (PositionKind::Rotary, keep) => format!(
             "rotary (SPE, {:?} pairs, base {}, cross positions {:?}){}",
-            c.rope_pairing,
-            c.rope_base,
-            c.cross_positions,
+            c.rope.pairing,
+            c.rope.base,
+            c.rope.cross_positions,
             if keep { " + learned absolute" } else { "" }
         ),
     }
@@ -71,24 +71,24 @@ fn positions_text(c: &ModelConfig) -> String {
 
 /// The cross-modal attention, in words.
 fn attention_text(c: &ModelConfig) -> String {
-    match (c.attention, c.qra_topology) {
+    match (c.attention, c.qra.topology) {
         (AttentionKind::Softmax, _) => "softmax".to_string(),
         (AttentionKind::Qra, QraTopology::SelfAttention) => {
             let n = (0..c.cross_layers).filter(|&l| c.layer_uses_qra(l)).count();
             format!(
                 "QRA in {n} of {} layers (P {}, kernel {}, q/k head dim {}, 2π {}, conv input {:?}, positions {:?})",
                 c.cross_layers,
-                c.qra_periods,
-                c.qra_kernel,
+                c.qra.periods,
+                c.qra.kernel,
                 c.qra_qk_head_dim(),
-                c.qra_two_pi,
-                c.qra_conv_input,
-                c.qra_positions
+                c.qra.two_pi,
+                c.qra.conv_input,
+                c.qra.positions
             )
         }
         (AttentionKind::Qra, QraTopology::CrossPrefix) => format!(
             "softmax, after a motion→audio QRA block (P {}, kernel {})",
-            c.qra_periods, c.qra_kernel
+            c.qra.periods, c.qra.kernel
         ),
     }
 }
@@ -223,17 +223,17 @@ pub fn formula_param_count(c: &ModelConfig) -> usize {
     let output = w * w + w;
     let dk = c.qra_qk_head_dim();
     let qra = || {
-        let projections = match c.qra_qk_proj {
+        let projections = match c.qra.qk_proj {
             QraQkProj::Dense => w * (2 * h * dk + w),
             // Two QuaternionLinear(w/4 → h·dk/4) with a 4·(h·dk/4) bias, and a bias-free v.
             QraQkProj::Quaternion => 2 * (4 * (w / 4) * (h * dk / 4) + h * dk) + w * w,
         };
-        let conv_in = match c.qra_conv_input {
+        let conv_in = match c.qra.conv_input {
             QraConvInput::Normed => w,
             QraConvInput::Projected => h * dk,
         };
-        let channels = h * c.qra_periods;
-        projections + 4 * (conv_in * c.qra_kernel * channels + channels) + output
+        let channels = h * c.qra.periods;
+        projections + 4 * (conv_in * c.qra.kernel * channels + channels) + output
     };
     let softmax_block = layer_norms + 3 * w * w + output + mlp;
     let qra_block = layer_norms + mlp + qra();
@@ -261,7 +261,7 @@ pub fn formula_param_count(c: &ModelConfig) -> usize {
     } else {
         0
     };
-    let prefix = if c.attention == AttentionKind::Qra && c.qra_topology == QraTopology::CrossPrefix
+    let prefix = if c.attention == AttentionKind::Qra && c.qra.topology == QraTopology::CrossPrefix
     {
         2 * (2 * w) + qra()
     } else {
@@ -273,7 +273,7 @@ pub fn formula_param_count(c: &ModelConfig) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use qean_config::model::{Arch, QraDk, QraLayers};
+    use qean_config::model::{Arch, QraDk, QraLayers, QraOptions, RopeOptions};
 
     fn count(c: &ModelConfig) -> usize {
         DanceModel::new(c, &Device::flex()).num_params()
@@ -340,36 +340,54 @@ mod tests {
         };
         let variants = [
             ModelConfig {
-                qra_dk: QraDk::RoundUp,
+                qra: QraOptions {
+                    dk: QraDk::RoundUp,
+                    ..QraOptions::default()
+                },
                 heads: 16,
                 hidden: 80,
                 ..base.clone()
             },
             ModelConfig {
-                qra_qk_proj: QraQkProj::Quaternion,
+                qra: QraOptions {
+                    qk_proj: QraQkProj::Quaternion,
+                    ..QraOptions::default()
+                },
                 heads: 16,
                 hidden: 80,
                 ..base.clone()
             },
             ModelConfig {
-                qra_kernel: 3,
-                qra_conv_input: QraConvInput::Projected,
+                qra: QraOptions {
+                    kernel: 3,
+                    conv_input: QraConvInput::Projected,
+                    ..QraOptions::default()
+                },
                 ..base.clone()
             },
             ModelConfig {
-                qra_layers: QraLayers::LastK,
-                qra_layers_k: 5,
-                qra_periods: 4,
+                qra: QraOptions {
+                    layers: QraLayers::LastK,
+                    layers_k: 5,
+                    periods: 4,
+                    ..QraOptions::default()
+                },
                 ..base.clone()
             },
             ModelConfig {
-                qra_topology: QraTopology::CrossPrefix,
+                qra: QraOptions {
+                    topology: QraTopology::CrossPrefix,
+                    ..QraOptions::default()
+                },
                 ..base.clone()
             },
             ModelConfig {
                 input_fusion: InputFusion::Quaternion254,
                 position: PositionKind::Rotary,
-                keep_abs_pos: true,
+                rope: RopeOptions {
+                    keep_abs_pos: true,
+                    ..RopeOptions::default()
+                },
                 ..base.clone()
             },
         ];

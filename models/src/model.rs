@@ -206,7 +206,7 @@ mod tests {
         // rounding, for FACT and for QEAN with rotary positions, QRA in the last layer or only in
         // the first, a cross-prefix block and per-modality or concatenated positions.
         use crate::testing::{f64_normal, to_f64};
-        use qean_config::model::{CrossPositions, QraLayers, QraTopology};
+        use qean_config::model::{CrossPositions, QraLayers, QraOptions, QraTopology, RopeOptions};
         let device = Device::flex();
         let qean = tiny(Arch::Qean);
         let configs = [
@@ -218,7 +218,10 @@ mod tests {
             },
             ModelConfig {
                 position: PositionKind::Rotary,
-                cross_positions: CrossPositions::Concatenated,
+                rope: RopeOptions {
+                    cross_positions: CrossPositions::Concatenated,
+                    ..RopeOptions::default()
+                },
                 ..qean.clone()
             },
             ModelConfig {
@@ -228,13 +231,19 @@ mod tests {
             ModelConfig {
                 position: PositionKind::Rotary,
                 attention: AttentionKind::Qra,
-                qra_layers: QraLayers::FirstK,
-                qra_layers_k: 1,
+                qra: QraOptions {
+                    layers: QraLayers::FirstK,
+                    layers_k: 1,
+                    ..QraOptions::default()
+                },
                 ..qean.clone()
             },
             ModelConfig {
                 attention: AttentionKind::Qra,
-                qra_topology: QraTopology::CrossPrefix,
+                qra: QraOptions {
+                    topology: QraTopology::CrossPrefix,
+                    ..QraOptions::default()
+                },
                 ..qean.clone()
             },
         ];

@@ -101,15 +101,15 @@ impl QeanConfig {
     fn qra_config(&self) -> QraConfig {
         let c = &self.model;
         QraConfig::new(c.hidden, c.heads)
-            .with_periods(c.qra_periods)
-            .with_kernel(c.qra_kernel)
+            .with_periods(c.qra.periods)
+            .with_kernel(c.qra.kernel)
             .with_scale(c.attn_scale)
-            .with_two_pi(c.qra_two_pi)
-            .with_dk(c.qra_dk)
-            .with_conv_input(c.qra_conv_input)
-            .with_qk_proj(c.qra_qk_proj)
+            .with_two_pi(c.qra.two_pi)
+            .with_dk(c.qra.dk)
+            .with_conv_input(c.qra.conv_input)
+            .with_qk_proj(c.qra.qk_proj)
             .with_dropout(c.dropout_at(DropoutSite::Attention))
-            .with_init(c.qra_init)
+            .with_init(c.qra.init)
     }
 
     /// Builds the model (mint's initialisers for the FACT parts).
@@ -141,7 +141,7 @@ impl QeanConfig {
             audio_pos: learned
                 .then(|| PositionEmbeddingConfig::new(c.audio_len, c.hidden).init(device)),
             audio_transformer: stack(c.audio_layers),
-            cross_prefix: (uses_qra && c.qra_topology == QraTopology::CrossPrefix).then(|| {
+            cross_prefix: (uses_qra && c.qra.topology == QraTopology::CrossPrefix).then(|| {
                 CrossPrefixConfig::new(self.qra_config())
                     .with_residual_dropout(c.dropout_at(DropoutSite::Residual))
                     .init(device)
@@ -152,10 +152,10 @@ impl QeanConfig {
             spe: rotary.then(|| rope(c, c.head_dim())),
             qra_spe: (rotary && uses_qra).then(|| rope(c, c.qra_qk_head_dim())),
             options: QeanOptions {
-                cross_positions: c.cross_positions,
-                qra_positions: c.qra_positions,
-                lambda_omega: c.qra_lambda_omega,
-                lambda_theta: c.qra_lambda_theta,
+                cross_positions: c.rope.cross_positions,
+                qra_positions: c.qra.positions,
+                lambda_omega: c.qra.lambda_omega,
+                lambda_theta: c.qra.lambda_theta,
             },
         }
     }
@@ -163,8 +163,8 @@ impl QeanConfig {
 
 fn rope(c: &ModelConfig, head_dim: usize) -> Spe {
     SpeConfig::new(head_dim)
-        .with_base(c.rope_base)
-        .with_pairing(c.rope_pairing)
+        .with_base(c.rope.base)
+        .with_pairing(c.rope.pairing)
         .init()
 }
 

@@ -5,7 +5,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::feature_cache;
 use qean_eval::config::{value_name, EvalConfig, MetricsMode, MusicBeatSource};
@@ -20,6 +19,8 @@ use qean_eval::run_report::{
 };
 use qean_models::autoregress::{AudioPad, SampleOptions, SampleRequest};
 use qean_motion::motion::Motion;
+
+use crate::{Error, Result};
 
 /// Sampling settings of checkpoint mode; `None` takes the run's recipe.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -107,7 +108,7 @@ pub struct RunEvaluation {
 }
 
 /// Runs checkpoint mode.
-pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
+pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
     let ck = qean_train::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
     let out_dir = req
         .run
@@ -190,21 +191,23 @@ pub fn evaluate_run(req: &RunEvalRequest) -> anyhow::Result<RunEvaluation> {
 }
 
 /// `step-N`, or `step-N-TAG` for a tag of letters, digits, '-', '_' or '.'.
-fn eval_dir_name(step: u64, tag: Option<&str>) -> anyhow::Result<String> {
+fn eval_dir_name(step: u64, tag: Option<&str>) -> Result<String> {
     if let Some(tag) = tag {
         let ok = !tag.is_empty()
             && tag
                 .chars()
                 .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c));
         if !ok {
-            bail!("--tag {tag:?}: use letters, digits, '-', '_' or '.'");
+            return Err(Error::Invalid(format!(
+                "--tag {tag:?}: use letters, digits, '-', '_' or '.'"
+            )));
         }
     }
     Ok(qean_eval::curves::eval_dir_name(step, tag))
 }
 
 /// The test and val sequences whose motion files exist (at least 2), with their music features cached.
-fn protocol_sequences(ds: &Dataset) -> anyhow::Result<Vec<String>> {
+fn protocol_sequences(ds: &Dataset) -> Result<Vec<String>> {
     let mut names = ds.split(Split::Test);
     names.extend(ds.split(Split::Val));
     names.retain(|n| {
@@ -217,11 +220,13 @@ fn protocol_sequences(ds: &Dataset) -> anyhow::Result<Vec<String>> {
         }
     });
     if names.len() < 2 {
-        bail!(
-            "{}: the test and val splits hold {} motion(s); the metrics need at least 2",
-            ds.root.display(),
-            names.len()
-        );
+        return Err(Error::Io(qean_io::Error::at(
+            &ds.root,
+            format!(
+                "the test and val splits hold {} motion(s); the metrics need at least 2",
+                names.len()
+            ),
+        )));
     }
     qean_train::data::ensure_features(ds, &names)?;
     Ok(names)
@@ -234,18 +239,20 @@ fn sample_requests(
     pairs: &[(String, String, String)],
     config: &qean_config::RunConfig,
     seed_start: SeedStart,
-) -> anyhow::Result<(Vec<SampleRequest>, Vec<usize>)> {
+) -> Result<(Vec<SampleRequest>, Vec<usize>)> {
     let (layout, seed_frames) = (config.layout(), config.model.motion_len);
     let mut motions = Vec::new();
     for (motion, _, _) in pairs {
         let path = ds.motion_path(motion);
         let m = Motion::read_pkl(&path)?;
         if m.frames < seed_frames {
-            bail!(
-                "{}: {} frames, shorter than the {seed_frames}-frame seed",
-                path.display(),
-                m.frames
-            );
+            return Err(Error::Io(qean_io::Error::at(
+                &path,
+                format!(
+                    "{} frames, shorter than the {seed_frames}-frame seed",
+                    m.frames
+                ),
+            )));
         }
         motions.push(m);
     }
@@ -265,10 +272,7 @@ fn sample_requests(
 }
 
 /// The sampler's options: the request's overrides, else the run's recipe.
-fn sample_options(
-    req: &RunEvalRequest,
-    config: &qean_config::RunConfig,
-) -> anyhow::Result<SampleOptions> {
+fn sample_options(req: &RunEvalRequest, config: &qean_config::RunConfig) -> Result<SampleOptions> {
     let s = &req.sampling;
     let r = &config.recipe;
     let opts = SampleOptions {
@@ -287,7 +291,7 @@ fn sample_options(
         ("--ensemble-decay", opts.ensemble_decay),
         config.model.target_len,
     )
-    .map_err(anyhow::Error::msg)?;
+    .map_err(Error::Invalid)?;
     Ok(opts)
 }
 
@@ -297,7 +301,7 @@ fn sample_dances(
     ck: &qean_train::Checkpoint,
     requests: &[SampleRequest],
     opts: &SampleOptions,
-) -> anyhow::Result<Vec<Vec<f32>>> {
+) -> Result<Vec<Vec<f32>>> {
     let backend = req.sampling.backend.unwrap_or(ck.config.train.backend);
     let device = qean_models::backend::device(backend)?;
     let model = ck.load_model(&device)?;
@@ -323,17 +327,16 @@ fn write_generated(
     starts: &[usize],
     opts: &SampleOptions,
     root: qean_motion::FkRoot,
-) -> anyhow::Result<(Vec<Sequence>, Vec<Pairing>)> {
+) -> Result<(Vec<Sequence>, Vec<Pairing>)> {
     let joints_dir = out_dir.join("generated");
-    std::fs::create_dir_all(&joints_dir)
-        .with_context(|| format!("{}: cannot create", joints_dir.display()))?;
+    std::fs::create_dir_all(&joints_dir).map_err(|e| qean_io::Error::io(&joints_dir, e))?;
     let d = opts.layout.dim();
     let mut generated = Vec::new();
     let mut pairings = Vec::new();
     let seed_frames = opts.spec.motion_len;
     for (((motion, music, name), dance), &start) in pairs.iter().zip(dances).zip(starts) {
         let m = Motion::from_layout(dance, opts.layout)
-            .map_err(|e| anyhow::anyhow!("generated {name}: {e}"))?;
+            .map_err(|e| Error::Invalid(format!("generated {name}: {e}")))?;
         let points = m.joints(root);
         qean_motion::joints_file::write_joints(
             &joints_dir.join(format!("{name}.joints.npy")),
@@ -364,7 +367,7 @@ fn write_generated(
 }
 
 /// The ground-truth reference set: every non-ignored motion, full length.
-fn reference_set(ds: &Dataset, root: qean_motion::FkRoot) -> anyhow::Result<Vec<Sequence>> {
+fn reference_set(ds: &Dataset, root: qean_motion::FkRoot) -> Result<Vec<Sequence>> {
     let mut reference = Vec::new();
     for name in ds.all_sequences()? {
         let m = Motion::read_pkl(&ds.motion_path(&name))?;
@@ -381,7 +384,7 @@ fn chance_baselines(
     reference: &[Sequence],
     lookup: qean_eval::protocol::BeatLookup,
     cfg: &EvalConfig,
-) -> anyhow::Result<Baselines> {
+) -> Result<Baselines> {
     let quiet = || tracing::subscriber::NoSubscriber::default();
     let frozen = tracing::subscriber::with_default(quiet(), || {
         evaluate(
@@ -426,7 +429,7 @@ fn write_report(
     report: &RunReport,
     label: &str,
     seed_frames: usize,
-) -> anyhow::Result<String> {
+) -> Result<String> {
     let labels: Vec<String> = report
         .reports
         .iter()

@@ -4,5 +4,8 @@
 //! [`curves`] evaluates the checkpoints a curve still lacks. Every entry point takes a typed request.
 
 pub mod curves;
+pub mod error;
 pub mod evaluate;
 pub mod generate;
+
+pub use error::{Error, Result};

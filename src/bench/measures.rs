@@ -297,11 +297,11 @@ fn metrics(inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
 }
 
 fn load_config(path: &Path) -> anyhow::Result<RunConfig> {
-    RunConfig::load(path, &[]).map_err(|e| anyhow::anyhow!("{e}"))
+    Ok(RunConfig::load(path, &[])?)
 }
 
 fn device(backend: &str) -> anyhow::Result<Device> {
-    qean_models::backend::device_named(backend).map_err(|e| anyhow::anyhow!("{e}"))
+    Ok(qean_models::backend::device_named(backend)?)
 }
 
 fn train(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {

@@ -73,8 +73,7 @@ fn run_data(command: Command) -> anyhow::Result<()> {
             } else if a.path.join("config.toml").is_file() && a.path.join("metrics.csv").is_file() {
                 train_cmds::inspect_run(&a.path)
             } else if ext == "toml" {
-                let i =
-                    qean_models::inspect::inspect(&a.path).map_err(|e| anyhow::anyhow!("{e}"))?;
+                let i = qean_models::inspect::inspect(&a.path)?;
                 print!("{}", i.summary);
                 println!("parameter count: {}", i.params);
                 Ok(())

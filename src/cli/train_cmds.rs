@@ -231,7 +231,7 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
 /// baselines, on the run's dataset): the `reference`-mode numbers, comparable with published
 /// tables, and the motion energy (speed and acceleration ratios, frozen share).
 fn evaluate_checkpoint(run_dir: &Path, frames: usize) -> anyhow::Result<Vec<(String, f64)>> {
-    let config = RunConfig::load(&run_dir.join("config.toml"), &[]).map_err(|e| anyhow!("{e}"))?;
+    let config = RunConfig::load(&run_dir.join("config.toml"), &[])?;
     let data = config
         .data
         .dir
@@ -353,7 +353,7 @@ pub fn inspect_checkpoint(dir: &Path) -> anyhow::Result<()> {
 
 /// `qean inspect` of a run directory: config, checkpoints and the last metrics.
 pub fn inspect_run(dir: &Path) -> anyhow::Result<()> {
-    let config = RunConfig::load(&dir.join("config.toml"), &[]).map_err(|e| anyhow!("{e}"))?;
+    let config = RunConfig::load(&dir.join("config.toml"), &[])?;
     println!("run: {}", dir.display());
     println!("config: {}", config.summary());
     let list = qean_train::run_dir::list_checkpoints(dir)?;
