@@ -10,6 +10,7 @@ pub mod recipe;
 pub mod run;
 pub mod schedule;
 pub mod sweep;
+pub mod tsmt;
 
 pub use model::{ConfigError, ModelConfig};
 pub use recipe::{AudioNorm, Predict, RecipeBase, RecipeConfig, RolloutMode};

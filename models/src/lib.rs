@@ -32,6 +32,7 @@ pub mod quaternion_linear;
 pub mod sampler;
 pub mod spe;
 pub mod transformer;
+pub mod tsmt;
 
 #[cfg(test)]
 pub(crate) mod testing;

@@ -1,0 +1,11 @@
+//! Li et al.'s Two-Stream Motion Transformer (SPEC §11): binned joint coordinates ([`bins`]), the
+//! causal two-stream model ([`model`]), its masked cross-entropy ([`loss`]) and how one bin is drawn
+//! when sampling ([`draw`]).
+
+pub mod bins;
+pub mod draw;
+pub mod loss;
+pub mod model;
+
+pub use bins::{coords_to_joints, pose_coords, Bins};
+pub use model::{Tsmt, TsmtInput};
