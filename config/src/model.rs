@@ -692,8 +692,6 @@ fn merge_into(base: &mut toml::Table, over: toml::Table) {
 
 /// Extracts and validates `[model]` from a merged table (defaults fill what is absent).
 pub fn model_from_table(table: &toml::Table, path: &Path) -> Result<ModelConfig, ConfigError> {
-    let mut table = table.clone();
-    upgrade_legacy_keys(&mut table).map_err(|m| ConfigError::new(path, None, m))?;
     let model = match table.get("model") {
         None => ModelConfig::default(),
         Some(toml::Value::Table(t)) => t

@@ -236,9 +236,7 @@ impl RunConfig {
     }
 
     /// A run config from a merged table (`path` names it in errors).
-    pub fn from_table(mut table: toml::Table, path: &Path) -> Result<RunConfig, ConfigError> {
-        crate::model::upgrade_legacy_keys(&mut table)
-            .map_err(|m| ConfigError::new(path, None, m))?;
+    pub fn from_table(table: toml::Table, path: &Path) -> Result<RunConfig, ConfigError> {
         let config: RunConfig = toml::Value::Table(table)
             .try_into()
             .map_err(|e: toml::de::Error| ConfigError::new(path, None, e.message().trim()))?;

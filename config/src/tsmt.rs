@@ -27,6 +27,16 @@ pub enum RootMode {
     Delta,
 }
 
+impl RootMode {
+    /// Coordinates per frame: 69 (23 root-relative joints), or 72 with the root deltas.
+    pub fn coords(self) -> usize {
+        match self {
+            RootMode::Drop => 69,
+            RootMode::Delta => 72,
+        }
+    }
+}
+
 /// How training windows are drawn (SPEC §11.7).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -175,10 +185,7 @@ impl TsmtConfig {
 
     /// Number of coordinates n: 69 (23 root-relative joints), or 72 with the root deltas.
     pub fn coords(&self) -> usize {
-        match self.root_mode {
-            RootMode::Drop => 69,
-            RootMode::Delta => 72,
-        }
+        self.root_mode.coords()
     }
 
     /// Checks what the types do not; the message names the key.

@@ -12,23 +12,19 @@ use tracing::warn;
 use crate::error::{Error, Result};
 use crate::positions::{Frame, Sequence, N_JOINTS};
 
-fn data_err(e: qean_io::Error) -> Error {
-    Error::from(e)
-}
-
 /// Joint positions of one motion file. `.npy` of shape (T, 72) is read as flattened joints (as Bailando saves
 /// them); everything else goes through `qean_motion::joints_file` (FK with the given root for SMPL parameters).
 pub fn read_joints(path: &Path, root: FkRoot) -> Result<Vec<Frame>> {
     let is_npy = path.extension().and_then(|e| e.to_str()) == Some("npy");
     let points: Vec<[f64; 3]> = if is_npy {
-        let a = qean_io::npy::read(path).map_err(data_err)?;
+        let a = qean_io::npy::read(path)?;
         if matches!(a.shape.as_slice(), [_, 72]) {
             a.data.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
         } else {
-            qean_motion::joints_file::load_joints(path, root).map_err(data_err)?
+            qean_motion::joints_file::load_joints(path, root)?
         }
     } else {
-        qean_motion::joints_file::load_joints(path, root).map_err(data_err)?
+        qean_motion::joints_file::load_joints(path, root)?
     };
     Ok(points
         .chunks_exact(N_JOINTS)
@@ -115,5 +111,5 @@ pub fn read_beats_json(path: &Path) -> Result<HashMap<String, Vec<usize>>> {
 pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> Result<()> {
     let text = serde_json::to_string_pretty(value)
         .map_err(|e| Error::file(path, format!("cannot serialise: {e}")))?;
-    qean_io::fsutil::atomic_write(path, (text + "\n").as_bytes()).map_err(data_err)
+    qean_io::fsutil::atomic_write(path, (text + "\n").as_bytes()).map_err(Error::from)
 }

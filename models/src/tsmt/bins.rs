@@ -3,9 +3,7 @@
 //! recomputed at inference.
 
 use qean_config::tsmt::{BinsMode, RootMode, TsmtConfig};
-
-/// SMPL joints per frame.
-const JOINTS: usize = 24;
+use qean_motion::skeleton::NUM_JOINTS as JOINTS;
 
 /// The coordinates of every frame, frames × n (n = 69, or 72 with `RootMode::Delta`), joint-major:
 /// x[3(j−1) + a] = p_j[a] − p_0[a] for j = 1..23; `Delta` appends (Δx, y, Δz) of the root, the
@@ -34,7 +32,7 @@ pub fn pose_coords(joints: &[[f64; 3]], root: RootMode) -> Vec<f64> {
 /// the first frame: with `Drop` every frame's root is `start`; with `Delta` the ground-plane steps
 /// are added up from `start` and the height is read from the coordinates.
 pub fn coords_to_joints(coords: &[f64], root: RootMode, start: [f64; 3]) -> Vec<[f64; 3]> {
-    let n = coord_count(root);
+    let n = root.coords();
     let mut out = Vec::with_capacity(coords.len() / n * JOINTS);
     let mut r = start;
     for x in coords.chunks_exact(n) {
@@ -47,14 +45,6 @@ pub fn coords_to_joints(coords: &[f64], root: RootMode, start: [f64; 3]) -> Vec<
         }
     }
     out
-}
-
-/// Coordinates per frame for a root mode.
-pub fn coord_count(root: RootMode) -> usize {
-    match root {
-        RootMode::Drop => 69,
-        RootMode::Delta => 72,
-    }
 }
 
 /// The fitted bins: C bins of width (hi_d − lo_d)/C per coordinate d.
@@ -223,7 +213,7 @@ mod tests {
             .collect();
         for root in [RootMode::Drop, RootMode::Delta] {
             let c = pose_coords(&joints, root);
-            assert_eq!(c.len(), frames * coord_count(root));
+            assert_eq!(c.len(), frames * root.coords());
             let back = coords_to_joints(&c, root, joints[0]);
             for t in 0..frames {
                 // Drop keeps the start root on every frame: compare relative positions.

@@ -22,31 +22,25 @@ const AUDIO_EMBED: usize = 30;
 /// Beat tokens: 0 no beat, 1 beat, 2 padding.
 pub const BEAT_PAD: i64 = 2;
 
-/// PyTorch's default Linear / kernel-1 Conv1d: weight and bias U(±1/√fan_in).
-fn torch_linear(d_in: usize, d_out: usize, device: &Device) -> Linear {
+/// PyTorch's default Linear / kernel-1 Conv1d initialiser: U(±1/√fan_in).
+fn torch_uniform(d_in: usize) -> Initializer {
     let bound = 1.0 / (d_in as f64).sqrt();
-    let init = Initializer::Uniform {
+    Initializer::Uniform {
         min: -bound,
         max: bound,
-    };
-    Linear {
-        weight: init.init([d_in, d_out], device),
-        bias: Some(init.init([d_out], device)),
     }
+}
+
+/// PyTorch's default Linear / kernel-1 Conv1d: weight and bias U(±1/√fan_in).
+fn torch_linear(d_in: usize, d_out: usize, device: &Device) -> Linear {
+    linear_with(torch_uniform(d_in), d_in, d_out, device)
 }
 
 /// A Linear with the given weight initialiser and PyTorch's default bias.
 fn linear_with(weight: Initializer, d_in: usize, d_out: usize, device: &Device) -> Linear {
-    let bound = 1.0 / (d_in as f64).sqrt();
     Linear {
         weight: weight.init_with([d_in, d_out], Some(d_in), Some(d_out), device),
-        bias: Some(
-            Initializer::Uniform {
-                min: -bound,
-                max: bound,
-            }
-            .init([d_out], device),
-        ),
+        bias: Some(torch_uniform(d_in).init([d_out], device)),
     }
 }
 
