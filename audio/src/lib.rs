@@ -10,6 +10,7 @@
 //!   [`FeatureOptions::with_start_bpm`] setting the beat tracker's tempo prior.
 //! - Building blocks for other metrics: [`onset_strength`], [`onset_detect`], [`beats::beat_track`],
 //!   [`hpss::bailando_beats`] (BeatAlign's music beats).
+//! - [`delta::delta`]: librosa's delta features, and [`delta::tsmt_audio`], TSMT's MFCC + Δ rows and beat flags (SPEC §11.4).
 //!
 //! Parity with librosa 0.8.1 is tested in `audio/tests/audio_parity.rs` on fixtures made by
 //! `tools/make_audio_fixtures.py`.
@@ -18,6 +19,7 @@ pub mod beat;
 pub mod chroma;
 pub mod cqt;
 pub mod decode;
+pub mod delta;
 pub mod features;
 pub mod hpss;
 pub mod mel;

@@ -65,4 +65,19 @@ mod tests {
         assert!((m.data[0] - (-20.0 * 128f64.sqrt())).abs() < 1e-9);
         assert!(m.data[1..].iter().all(|v| v.abs() < 1e-9));
     }
+
+    /// SPEC §11.4: the orthonormal DCT truncates, so n_mfcc = 13 is the first 13 columns of n_mfcc = 20
+    /// (TSMT's c_0..c_12 are §2 columns 1–13).
+    #[test]
+    fn thirteen_coefficients_are_the_first_thirteen_of_twenty() {
+        let s = Spectrogram {
+            n_frames: 3,
+            n_bins: 128,
+            data: (0..3 * 128).map(|i| ((i * 37) % 101) as f64 - 50.0).collect(),
+        };
+        let (a, b) = (mfcc_from_db_mel(&s, 13), mfcc_from_db_mel(&s, 20));
+        for t in 0..3 {
+            assert_eq!(a.data[t * 13..(t + 1) * 13], b.data[t * 20..t * 20 + 13]);
+        }
+    }
 }

@@ -306,3 +306,40 @@ fn bailando_hpss_beats_match_librosa() {
         assert!(d.0 as f64 <= 0.02 * want.len() as f64, "{key}");
     }
 }
+
+/// SPEC §11.4/§11.13.4: librosa 0.8.1's delta (width 9, order 1, interp) equals scipy's
+/// `savgol_filter(9, 1, deriv=1, mode='interp')` on the MFCC columns 1–13 of the librosa fixture
+/// (fixture: tools/make_tsmt_fixtures.py); TSMT's audio rows carry the same values.
+#[test]
+fn tsmt_deltas_match_scipy_savgol() {
+    let (shape, feat) = read_npy(&fixture_dir().join("vibe_ace_wav_feat35.npy"));
+    let (dshape, want) = read_npy(&fixture_dir().join("vibe_ace_wav_delta13.npy"));
+    let frames = shape[0];
+    assert_eq!(dshape, vec![frames, 13]);
+    let feat32: Vec<f32> = feat.iter().map(|&x| x as f32).collect();
+    let mfcc: Vec<f64> = (0..frames)
+        .flat_map(|t| (1..14).map(move |c| t * FEATURE_DIM + c))
+        .map(|i| feat32[i] as f64)
+        .collect();
+    let got = qean_audio::delta::delta(&mfcc, frames, 13, 9);
+    let worst = got
+        .iter()
+        .zip(&want)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f64, f64::max);
+    println!("delta vs scipy: worst abs error {worst:.3e} over {frames} frames");
+    assert!(worst < 1e-10, "{worst}");
+    let (rows, beats) = qean_audio::delta::tsmt_audio(&feat32, frames);
+    for t in [0, 3, 4, 1000, frames - 1] {
+        for k in 0..13 {
+            assert_eq!(rows[t * 26 + k], feat32[t * FEATURE_DIM + 1 + k]);
+            assert!((rows[t * 26 + 13 + k] as f64 - want[t * 13 + k]).abs() < 1e-4);
+        }
+    }
+    let n_beats = beats.iter().filter(|&&b| b == 1).count();
+    let want_beats = (0..frames)
+        .filter(|t| feat32[t * FEATURE_DIM + 34] == 1.0)
+        .count();
+    assert_eq!(n_beats, want_beats);
+    assert!(n_beats > 10);
+}
