@@ -380,7 +380,17 @@ fn inspect_fact_config_counts_parameters() {
         String::from_utf8_lossy(&out.stderr)
     );
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(text.contains("parameter count: 120406977"), "{text}");
+    assert!(text.contains("parameter count: 120,406,977"), "{text}");
+    // SPEC §11.6: the TSMT presets.
+    for (preset, want) in [("paper", "1,419,388"), ("tiny", "37,524")] {
+        let cfg = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("configs/tsmt/{preset}.toml"));
+        let out = qean().arg("inspect").arg(&cfg).output().unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            text.contains(&format!("parameter count: {want}\n")),
+            "{text}"
+        );
+    }
     // An unknown key is an error naming the file and the key.
     let tmp = tempfile::tempdir().unwrap();
     let bad = tmp.path().join("bad.toml");

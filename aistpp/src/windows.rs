@@ -80,6 +80,10 @@ impl Sequence {
 #[derive(Debug, Clone)]
 pub struct SequenceSet {
     pub layout: Layout,
+    /// Values per motion frame (the layout's width, or what [`SequenceSet::remap`] made of it).
+    pub dim: usize,
+    /// Values per music frame (35, or what [`SequenceSet::remap`] made of it).
+    pub audio_dim: usize,
     pub spec: WindowSpec,
     pub sequences: Vec<Sequence>,
     /// Names skipped because they are shorter than a window.
@@ -161,6 +165,8 @@ impl SequenceSet {
         }
         Ok(SequenceSet {
             layout,
+            dim: layout.dim(),
+            audio_dim: AUDIO_DIM,
             spec,
             sequences,
             skipped,
@@ -169,7 +175,7 @@ impl SequenceSet {
 
     /// Copy the window of sequence `i` starting at `s` into the batch buffers.
     fn push_window(&self, i: usize, s: usize, batch: &mut Batch) {
-        let d = self.layout.dim();
+        let (d, ad) = (self.dim, self.audio_dim);
         let seq = &self.sequences[i];
         let sp = &self.spec;
         batch
@@ -181,9 +187,54 @@ impl SequenceSet {
             .extend_from_slice(&seq.motion[t0 * d..(t0 + sp.target_len) * d]);
         batch
             .audio
-            .extend_from_slice(&seq.audio[s * AUDIO_DIM..(s + sp.audio_len) * AUDIO_DIM]);
+            .extend_from_slice(&seq.audio[s * ad..(s + sp.audio_len) * ad]);
         batch.names.push(seq.name.clone());
         batch.starts.push(s);
+    }
+
+    /// The same windows over another representation: each sequence's motion becomes `motion(seq)`
+    /// (frames × `dim`) and each music's features `audio(features, frames)` (frames × `audio_dim`,
+    /// computed once per music and shared like the features). Errors of `motion` pass through.
+    pub fn remap(
+        self,
+        dim: usize,
+        audio_dim: usize,
+        mut motion: impl FnMut(&Sequence) -> Result<Vec<f32>>,
+        mut audio: impl FnMut(&[f32], usize) -> Vec<f32>,
+    ) -> Result<SequenceSet> {
+        let mut done: HashMap<*const Vec<f32>, Arc<Vec<f32>>> = HashMap::new();
+        let mut sequences = Vec::with_capacity(self.sequences.len());
+        for seq in self.sequences {
+            let m = motion(&seq)?;
+            if m.len() != seq.motion_frames * dim {
+                return Err(Error::msg(format!(
+                    "{}: the remapped motion has {} values, expected {} frames × {dim}",
+                    seq.name,
+                    m.len(),
+                    seq.motion_frames
+                )));
+            }
+            let a = done
+                .entry(Arc::as_ptr(&seq.audio))
+                .or_insert_with(|| Arc::new(audio(&seq.audio, seq.audio_frames)))
+                .clone();
+            assert_eq!(
+                a.len(),
+                seq.audio_frames * audio_dim,
+                "remapped audio shape"
+            );
+            sequences.push(Sequence {
+                motion: m,
+                audio: a,
+                ..seq
+            });
+        }
+        Ok(SequenceSet {
+            dim,
+            audio_dim,
+            sequences,
+            ..self
+        })
     }
 
     /// Windows at s = 0 of every sequence (teacher-forced validation, SPEC §5.6).
@@ -196,8 +247,8 @@ impl SequenceSet {
     }
 }
 
-/// A batch of windows, row-major: motion [B, motion_len, D], audio [B, audio_len, 35], target
-/// [B, target_len, D].
+/// A batch of windows, row-major: motion [B, motion_len, D], audio [B, audio_len, A] (A = 35 unless
+/// remapped), target [B, target_len, D].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Batch {
     pub motion: Vec<f32>,
@@ -206,6 +257,7 @@ pub struct Batch {
     pub names: Vec<String>,
     pub starts: Vec<usize>,
     pub dim: usize,
+    pub audio_dim: usize,
     pub spec: WindowSpec,
 }
 
@@ -217,13 +269,32 @@ impl Batch {
             target: vec![],
             names: vec![],
             starts: vec![],
-            dim: set.layout.dim(),
+            dim: set.dim,
+            audio_dim: set.audio_dim,
             spec: set.spec,
         }
     }
 
     pub fn len(&self) -> usize {
         self.names.len()
+    }
+
+    /// Windows `start..end` of the batch.
+    pub fn slice(&self, start: usize, end: usize) -> Batch {
+        let sp = self.spec;
+        let (m, a, t) = (
+            sp.motion_len * self.dim,
+            sp.audio_len * self.audio_dim,
+            sp.target_len * self.dim,
+        );
+        Batch {
+            motion: self.motion[start * m..end * m].to_vec(),
+            audio: self.audio[start * a..end * a].to_vec(),
+            target: self.target[start * t..end * t].to_vec(),
+            names: self.names[start..end].to_vec(),
+            starts: self.starts[start..end].to_vec(),
+            ..*self
+        }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -336,6 +407,8 @@ mod tests {
             .collect();
         SequenceSet {
             layout,
+            dim: d,
+            audio_dim: AUDIO_DIM,
             spec: WindowSpec::default(),
             sequences,
             skipped: vec![],

@@ -15,8 +15,15 @@ pub const DELTA_WIDTH: usize = 9;
 /// `delta(width, order=1, mode='interp')` along time. `width` must be odd and ≥ 3; sequences
 /// shorter than `width` have no interp fit in scipy (it raises) and get zeros here.
 pub fn delta(data: &[f64], frames: usize, dims: usize, width: usize) -> Vec<f64> {
-    assert!(width >= 3 && width % 2 == 1, "delta width must be odd and ≥ 3");
-    assert_eq!(data.len(), frames * dims, "delta: data is not frames × dims");
+    assert!(
+        width >= 3 && width % 2 == 1,
+        "delta width must be odd and ≥ 3"
+    );
+    assert_eq!(
+        data.len(),
+        frames * dims,
+        "delta: data is not frames × dims"
+    );
     let mut out = vec![0.0; frames * dims];
     if frames < width {
         return out;

@@ -73,7 +73,9 @@ mod tests {
         let s = Spectrogram {
             n_frames: 3,
             n_bins: 128,
-            data: (0..3 * 128).map(|i| ((i * 37) % 101) as f64 - 50.0).collect(),
+            data: (0..3 * 128)
+                .map(|i| ((i * 37) % 101) as f64 - 50.0)
+                .collect(),
         };
         let (a, b) = (mfcc_from_db_mel(&s, 13), mfcc_from_db_mel(&s, 20));
         for t in 0..3 {

@@ -18,7 +18,8 @@ use std::path::{Path, PathBuf};
 use qean_motion::motion::Layout;
 use serde::{Deserialize, Serialize};
 
-/// Which model family to build: mint's FACT, or QEAN (FACT plus the switches below).
+/// Which model family to build: mint's FACT, QEAN (FACT plus the switches below), or Li et al.'s
+/// two-stream motion transformer (configured by the run's `[tsmt]` table, not by `[model]`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Arch {
@@ -26,6 +27,8 @@ pub enum Arch {
     Fact,
     /// QEAN: FACT plus SPE / QRA / dropout / input fusion (SPEC §4.3–4.7).
     Qean,
+    /// TSMT (SPEC §11): its sizes and options are the `[tsmt]` table; the rest of `[model]` is unused.
+    Tsmt,
 }
 
 /// Attention score scale `s` (SPEC §4.1).

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::recipe::RecipeConfig;
 use crate::schedule::ScheduleConfig;
+use crate::tsmt::TsmtConfig;
 
 /// `[data]`: where the AIST++-layout dataset is and which splits to use.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -131,6 +132,9 @@ pub struct RunConfig {
     pub train: TrainConfig,
     /// Remedies against freezing and jitter (default: mint's plain recipe).
     pub recipe: RecipeConfig,
+    /// Li et al.'s two-stream motion transformer (`model.arch = "tsmt"` only; written only then).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tsmt: Option<TsmtConfig>,
 }
 
 /// What one file of an `extends` chain may hold (every table optional and partial).
@@ -145,6 +149,7 @@ struct RunFile {
     schedule: Option<ScheduleConfig>,
     train: Option<TrainConfig>,
     recipe: Option<RecipeConfig>,
+    tsmt: Option<TsmtConfig>,
 }
 
 fn check_file(path: &Path, text: &str) -> Result<(), ConfigError> {
@@ -237,9 +242,12 @@ impl RunConfig {
 
     /// A run config from a merged table (`path` names it in errors).
     pub fn from_table(table: toml::Table, path: &Path) -> Result<RunConfig, ConfigError> {
-        let config: RunConfig = toml::Value::Table(table)
+        let mut config: RunConfig = toml::Value::Table(table)
             .try_into()
             .map_err(|e: toml::de::Error| ConfigError::new(path, None, e.message().trim()))?;
+        if config.is_tsmt() && config.tsmt.is_none() {
+            config.tsmt = Some(TsmtConfig::default());
+        }
         config
             .validate()
             .map_err(|m| ConfigError::new(path, None, m))?;
@@ -249,6 +257,18 @@ impl RunConfig {
     /// Checks values that the types alone do not.
     pub fn validate(&self) -> Result<(), String> {
         self.model.validate().map_err(|m| format!("[model]: {m}"))?;
+        match (&self.tsmt, self.is_tsmt()) {
+            (Some(t), true) => t.validate()?,
+            (None, true) => return Err("model.arch = \"tsmt\" needs a [tsmt] table".into()),
+            (Some(_), false) => {
+                return Err(format!(
+                    "a [tsmt] table is for model.arch = \"tsmt\", not {:?}",
+                    self.model.arch
+                )
+                .to_lowercase())
+            }
+            (None, false) => {}
+        }
         let t = &self.train;
         if t.steps == 0 {
             return Err("train.steps must be at least 1".into());
@@ -294,8 +314,28 @@ impl RunConfig {
         Ok(())
     }
 
-    /// The window lengths the model sees (SPEC §1.5: the target follows the motion input).
+    /// Whether the run is Li et al.'s two-stream motion transformer (`model.arch = "tsmt"`).
+    pub fn is_tsmt(&self) -> bool {
+        self.model.arch == crate::model::Arch::Tsmt
+    }
+
+    /// The `[tsmt]` table of a TSMT run (the paper preset for any other: callers check `is_tsmt`).
+    pub fn tsmt(&self) -> TsmtConfig {
+        self.tsmt.clone().unwrap_or_default()
+    }
+
+    /// The window lengths the model sees (SPEC §1.5: the target follows the motion input; TSMT,
+    /// §11.7: W input frames, the W frames after each, and the music rows s..s+W, of which the
+    /// model takes s+1..s+W).
     pub fn window_spec(&self) -> WindowSpec {
+        if let (true, Some(t)) = (self.is_tsmt(), &self.tsmt) {
+            return WindowSpec {
+                motion_len: t.window,
+                target_len: t.window,
+                target_shift: 1,
+                audio_len: t.window + 1,
+            };
+        }
         WindowSpec {
             motion_len: self.model.motion_len,
             target_len: self.model.target_len,
@@ -325,6 +365,16 @@ impl RunConfig {
 
     /// One line: architecture, size and run length.
     pub fn summary(&self) -> String {
+        if let (true, Some(t)) = (self.is_tsmt(), &self.tsmt) {
+            return format!(
+                "tsmt bins {} ({:?}) root {:?} window {} embed {} hidden {} heads {}×{} layers {}; audio {:?} hidden {} heads {}×{} layers {}; d_out {} dropout {}; batch {} steps {} seed {}",
+                t.n_bins, t.bins_mode, t.root_mode, t.window, t.embed, t.hidden, t.heads, t.head_dim,
+                t.layers, t.audio_streams, t.audio_hidden, t.audio_heads, t.audio_head_dim,
+                t.audio_layers, t.d_out, t.dropout, self.train.batch_size, self.train.steps,
+                self.train.seed
+            )
+            .to_lowercase();
+        }
         let m = &self.model;
         format!(
             "{:?} hidden {} heads {} ffn {} layers {}-{}-{} position {:?} attention {:?} dropout {}; batch {} steps {} seed {}; {}",
@@ -491,5 +541,51 @@ mod tests {
         let e = c.to_toml().unwrap_err();
         assert!(e.starts_with("data.dir /tmp/data"), "{e}");
         assert!(e.contains("not valid UTF-8"), "{e}");
+    }
+
+    /// `model.arch = "tsmt"` reads the `[tsmt]` table (paper defaults when absent, --set works, an
+    /// unknown key names file and line); a `[tsmt]` table on a FACT run is an error.
+    #[test]
+    fn tsmt_runs_and_their_table() {
+        let d = tempfile::tempdir().unwrap();
+        let p = write(d.path(), "t.toml", "[model]\narch = \"tsmt\"\n");
+        let c = RunConfig::load(&p, &["tsmt.window=32".into()]).unwrap();
+        assert!(c.is_tsmt());
+        assert_eq!(c.tsmt().window, 32);
+        assert_eq!(c.tsmt().hidden, 128);
+        let spec = c.window_spec();
+        assert_eq!(
+            (
+                spec.motion_len,
+                spec.target_shift,
+                spec.target_len,
+                spec.audio_len
+            ),
+            (32, 1, 32, 33)
+        );
+        assert!(c.summary().starts_with("tsmt bins 300"), "{}", c.summary());
+        // The resolved config round-trips, bins and all.
+        let mut fitted = c.clone();
+        let t = fitted.tsmt.as_mut().unwrap();
+        t.bins_lo = (0..69).map(|i| -0.1 - i as f64 * 1e-17).collect();
+        t.bins_hi = (0..69).map(|i| 0.3 + i as f64 / 7.0).collect();
+        let text = fitted.to_toml().unwrap();
+        let q = write(d.path(), "resolved.toml", &text);
+        assert_eq!(RunConfig::load(&q, &[]).unwrap(), fitted);
+        let bad = write(
+            d.path(),
+            "bad.toml",
+            "[model]\narch = \"tsmt\"\n[tsmt]\nwindw = 3\n",
+        );
+        let e = RunConfig::load(&bad, &[]).unwrap_err().to_string();
+        assert!(
+            e.contains("bad.toml") && e.contains("windw") && e.contains("bad.toml:4"),
+            "{e}"
+        );
+        let fact = write(d.path(), "fact.toml", "[tsmt]\nwindow = 3\n");
+        let e = RunConfig::load(&fact, &[]).unwrap_err().to_string();
+        assert!(e.contains("model.arch = \"tsmt\""), "{e}");
+        // A FACT run's config.toml has no [tsmt] table.
+        assert!(!RunConfig::default().to_toml().unwrap().contains("[tsmt]"));
     }
 }

@@ -10,10 +10,14 @@ use burn::tensor::Device;
 
 use crate::input_fusion::QuaternionFusionConfig;
 use crate::model::DanceModel;
+use crate::tsmt::model::tsmt_params;
+use crate::tsmt::Tsmt;
 use qean_config::model::{
-    load_model_config, AttentionKind, ConfigError, InputFusion, ModelConfig, PositionKind,
+    load_model_config, Arch, AttentionKind, ConfigError, InputFusion, ModelConfig, PositionKind,
     QraConvInput, QraQkProj, QraTopology,
 };
+use qean_config::run::RunConfig;
+use qean_config::tsmt::{AudioStreams, TsmtConfig};
 
 /// What `inspect` reports.
 #[derive(Clone, Debug)]
@@ -31,6 +35,17 @@ pub struct Inspection {
 /// Loads a config file, instantiates its model lazily and summarises it.
 pub fn inspect(path: &Path) -> Result<Inspection, ConfigError> {
     let config = load_model_config(path)?;
+    if config.arch == Arch::Tsmt {
+        let tsmt = RunConfig::load(path, &[])?.tsmt();
+        let model = Tsmt::new(&tsmt, &Device::flex());
+        let params = model.num_params();
+        return Ok(Inspection {
+            path: path.to_path_buf(),
+            config,
+            params,
+            summary: tsmt_summary(&tsmt, &model, Some(path)),
+        });
+    }
     let model = DanceModel::new(&config, &Device::flex());
     let params = model.num_params();
     let summary = summary(&config, &model, Some(path));
@@ -132,8 +147,9 @@ fn parts_of(model: &DanceModel) -> Vec<(&'static str, usize)> {
 pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> String {
     let mut s = String::new();
     let arch = match c.arch {
-        qean_config::model::Arch::Fact => "FACT (mint)",
-        qean_config::model::Arch::Qean => "QEAN",
+        Arch::Fact => "FACT (mint)",
+        Arch::Qean => "QEAN",
+        Arch::Tsmt => "TSMT (configured by [tsmt])",
     };
     let from = path
         .map(|p| format!(" from {}", p.display()))
@@ -211,6 +227,71 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
     let _ = writeln!(s, "parameters: {}", group_digits(model.num_params()));
     for (name, n) in parts.into_iter().filter(|(_, n)| *n > 0) {
         let _ = writeln!(s, "  {name:<28} {:>13}", group_digits(n));
+    }
+    s
+}
+
+/// A printable summary of a TSMT model (SPEC §11.5) with its parts' parameter counts and the
+/// closed form of §11.6.
+pub fn tsmt_summary(c: &TsmtConfig, model: &Tsmt, path: Option<&Path>) -> String {
+    let mut s = String::new();
+    let from = path
+        .map(|p| format!(" from {}", p.display()))
+        .unwrap_or_default();
+    let n = c.coords();
+    let _ = writeln!(
+        s,
+        "model: TSMT (Li et al. 2020, two-stream motion transformer){from}"
+    );
+    let _ = writeln!(
+        s,
+        "  pose   [B, {w}, {n}] bins of {} ({:?}, root {:?}) → Emb({} × {}) → Linear({} → {}) → {} causal post-LN blocks (heads {} × {})",
+        c.n_bins,
+        c.bins_mode,
+        c.root_mode,
+        c.n_bins + 1,
+        c.embed,
+        n * c.embed,
+        c.hidden,
+        c.layers,
+        c.heads,
+        c.head_dim,
+        w = c.window,
+    );
+    let streams = match c.audio_streams {
+        AudioStreams::Single => "one stream over [tanh(MFCC) ; beat]",
+        AudioStreams::Split => "a beat stream and an MFCC stream",
+    };
+    let _ = writeln!(
+        s,
+        "  audio  [B, {}, 26 MFCC + Δ | beat] → {streams}, width {}, {} blocks (heads {} × {})",
+        c.window, c.audio_hidden, c.audio_layers, c.audio_heads, c.audio_head_dim
+    );
+    let _ = writeln!(
+        s,
+        "  head   Linear → [B, {}, {n}, {}] → Linear({} → {}) shared over coordinates; dropout {}",
+        c.window, c.d_out, c.d_out, c.n_bins, c.dropout
+    );
+    let audio = model.audio.num_params();
+    let parts = [
+        (
+            "pose embedding + stream",
+            model.pose_embed.num_params() + model.pose.num_params(),
+        ),
+        ("audio embedding + stream", audio),
+        (
+            "fusion + classifier",
+            model.fuse.num_params() + model.classifier.num_params(),
+        ),
+    ];
+    let _ = writeln!(
+        s,
+        "parameters: {} (closed form {})",
+        group_digits(model.num_params()),
+        group_digits(tsmt_params(c))
+    );
+    for (name, k) in parts {
+        let _ = writeln!(s, "  {name:<28} {:>13}", group_digits(k));
     }
     s
 }

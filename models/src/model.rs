@@ -39,6 +39,9 @@ impl DanceModel {
         match config.arch {
             Arch::Fact => DanceModel::Fact(FactConfig::from(config).init(device)),
             Arch::Qean => DanceModel::Qean(QeanConfig::from(config).init(device)),
+            Arch::Tsmt => panic!(
+                "DanceModel::new: a TSMT run is built by qean_models::tsmt::Tsmt from its [tsmt] table"
+            ),
         }
     }
 

@@ -170,3 +170,14 @@ fn tiny_qra_overfits_one_batch() {
 fn tiny_full_overfits_one_batch() {
     assert_overfits("tiny/full.toml");
 }
+
+/// SPEC §11.6: `qean inspect` of the TSMT presets.
+#[test]
+fn tsmt_presets_have_the_spec_parameter_counts() {
+    for (name, want) in [("tsmt/paper.toml", 1_419_388), ("tsmt/tiny.toml", 37_524)] {
+        let report = inspect(&preset(name)).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(report.params, want, "{name}");
+        assert!(report.summary.contains("TSMT"), "{}", report.summary);
+        println!("{}", report.summary);
+    }
+}

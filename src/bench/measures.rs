@@ -331,7 +331,14 @@ fn train(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow
         let a = tensor([b, spec.audio_len, AUDIO_DIM], 2);
         let target = tensor([b, spec.target_len, d], 3);
         let t = Instant::now();
-        let (next, loss) = update(model, &mut optim, (m, a, target), Default::default(), 1e-4);
+        let (next, loss) = update(
+            model,
+            &mut optim,
+            (m, a, target),
+            Default::default(),
+            1e-4,
+            0.0,
+        );
         model = next;
         anyhow::ensure!(loss.is_finite(), "the benchmark loss is not finite");
         if k > 0 {

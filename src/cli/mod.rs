@@ -75,7 +75,10 @@ fn run_data(command: Command) -> anyhow::Result<()> {
             } else if ext == "toml" {
                 let i = qean_models::inspect::inspect(&a.path)?;
                 print!("{}", i.summary);
-                println!("parameter count: {}", i.params);
+                println!(
+                    "parameter count: {}",
+                    qean_models::inspect::group_digits(i.params)
+                );
                 Ok(())
             } else {
                 data_cmds::inspect(a)

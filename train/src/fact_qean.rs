@@ -65,9 +65,10 @@ pub fn update(
     inputs: (Tensor<3>, Tensor<3>, Tensor<3>),
     weights: LossWeights,
     lr: f64,
+    clip: f64,
 ) -> (DanceModel, f64) {
     let loss = batch_loss(&model, inputs, weights);
-    crate::trainer::apply_update(model, optim, loss, lr)
+    crate::trainer::apply_update(model, optim, loss, lr, clip)
 }
 
 /// Model inputs and the training target of a batch: the future frames, or (`predict =
@@ -117,23 +118,11 @@ pub fn validation_loss(
 ) -> f64 {
     let all = set.first_windows();
     let n = all.len();
-    let (sp, d) = (all.spec, all.dim);
-    let per_m = sp.motion_len * d;
-    let per_a = sp.audio_len * AUDIO_DIM;
-    let per_t = sp.target_len * d;
     let mut sum = 0.0;
     let mut start = 0;
     while start < n {
         let end = (start + batch_size).min(n);
-        let chunk = Batch {
-            motion: all.motion[start * per_m..end * per_m].to_vec(),
-            audio: all.audio[start * per_a..end * per_a].to_vec(),
-            target: all.target[start * per_t..end * per_t].to_vec(),
-            names: all.names[start..end].to_vec(),
-            starts: all.starts[start..end].to_vec(),
-            dim: d,
-            spec: sp,
-        };
+        let chunk = all.slice(start, end);
         let (m, a, t) = tensors(&chunk, device, predict);
         let loss = motion_loss(model.forward(m, a), t).into_scalar::<f32>() as f64;
         sum += loss * (end - start) as f64;

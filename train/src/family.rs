@@ -92,6 +92,12 @@ pub trait Family {
         device: &Device,
     ) -> f64;
 
+    /// A factor on the schedule's learning rate at every step (e.g. TSMT's `lr_start_factor`).
+    /// Default: 1.
+    fn lr_factor(&self, _config: &RunConfig) -> f64 {
+        1.0
+    }
+
     /// Extra state every checkpoint carries (e.g. coordinate bins fitted on the training split), written to
     /// `family.json`. Default: none.
     fn checkpoint_state(&self) -> Option<serde_json::Value> {

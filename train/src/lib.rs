@@ -1,4 +1,4 @@
-//! qean-train: training FACT and QEAN from TOML run configs — run configs with `extends` and
+//! qean-train: training FACT, QEAN and TSMT from TOML run configs — run configs with `extends` and
 //! `--set`, the training loop, LR schedules, metrics logs, atomic checkpoints with exact resume,
 //! sweeps, and the safetensors export.
 
@@ -16,6 +16,7 @@ pub mod resume;
 pub mod run_dir;
 pub mod sweep;
 pub mod trainer;
+pub mod tsmt;
 
 pub use checkpoint::Checkpoint;
 pub use family::Family;

@@ -140,6 +140,7 @@ pub fn apply(
         names: drawn.names.clone(),
         starts: drawn.starts.iter().map(|s| s + lead).collect(),
         dim: d,
+        audio_dim: AUDIO_DIM,
         spec,
     };
     (batch, applied)
@@ -270,6 +271,7 @@ mod tests {
             names: (0..b).map(|i| format!("s{i}")).collect(),
             starts: vec![0; b],
             dim: d,
+            audio_dim: AUDIO_DIM,
             spec,
         }
     }

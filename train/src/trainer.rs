@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-use burn::module::Module;
+use burn::module::{Module, ModuleVisitor, Param};
 use burn::optim::decay::WeightDecayConfig;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor};
@@ -68,7 +68,9 @@ pub struct TrainOutcome {
     pub checkpoint: PathBuf,
 }
 
-/// The run's optimiser: Adam with its betas, epsilon, weight decay and gradient clipping.
+/// The run's optimiser: Adam with its betas, epsilon and coupled weight decay (g ← g + λθ inside the
+/// step, PyTorch's `Adam(weight_decay)`). Gradient clipping is global ([`apply_update`]), not Burn's
+/// per-tensor clip.
 pub fn adam(config: &RunConfig) -> ModuleOptimizer {
     let o = &config.optim;
     let mut adam = AdamConfig::new()
@@ -78,27 +80,69 @@ pub fn adam(config: &RunConfig) -> ModuleOptimizer {
     if o.weight_decay > 0.0 {
         adam = adam.with_weight_decay(Some(WeightDecayConfig::new(o.weight_decay as f32)));
     }
-    if o.grad_clip_norm > 0.0 {
-        adam = adam.with_grad_clipping(Some(
-            burn::optim::grad_clipping::GradientClippingConfig::Norm(o.grad_clip_norm as f32),
-        ));
-    }
     adam.init()
 }
 
-/// One optimiser update from a batch's loss: backward, Adam step at `lr`. Returns the updated model and
-/// the loss before the update; a non-finite loss returns the model unchanged.
+/// Sums the squares of every gradient of a module's float parameters.
+struct GradNorm<'g> {
+    grads: &'g GradientsParams,
+    sum: f64,
+}
+
+impl ModuleVisitor for GradNorm<'_> {
+    fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+        if let Some(g) = self.grads.get::<D>(param.id) {
+            self.sum += g.powi_scalar(2).sum().into_scalar::<f32>() as f64;
+        }
+    }
+}
+
+/// Multiplies every gradient of a module's float parameters by one factor.
+struct GradScale<'g> {
+    grads: &'g mut GradientsParams,
+    factor: f32,
+}
+
+impl ModuleVisitor for GradScale<'_> {
+    fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+        if let Some(g) = self.grads.remove::<D>(param.id) {
+            self.grads
+                .register::<D>(param.id, g.mul_scalar(self.factor));
+        }
+    }
+}
+
+/// PyTorch's `clip_grad_norm_(parameters, max_norm)`: when the global L2 norm of all gradients
+/// exceeds `max_norm`, every gradient is scaled by max_norm / (norm + 1e-6). Returns the norm.
+pub fn clip_global_norm<M: Module>(model: &M, grads: &mut GradientsParams, max_norm: f64) -> f64 {
+    let mut norm = GradNorm { grads, sum: 0.0 };
+    model.visit(&mut norm);
+    let total = norm.sum.sqrt();
+    if total > max_norm {
+        let factor = (max_norm / (total + 1e-6)) as f32;
+        model.visit(&mut GradScale { grads, factor });
+    }
+    total
+}
+
+/// One optimiser update from a batch's loss: backward, global-norm clipping at `clip` (0 = none), Adam
+/// step at `lr`. Returns the updated model and the loss before the update; a non-finite loss returns
+/// the model unchanged.
 pub fn apply_update<M: Module>(
     model: M,
     optim: &mut ModuleOptimizer,
     loss: Tensor<1>,
     lr: f64,
+    clip: f64,
 ) -> (M, f64) {
     let value = loss.clone().into_scalar::<f32>() as f64;
     if !value.is_finite() {
         return (model, value);
     }
-    let grads = GradientsParams::from_grads(loss.backward(), &model);
+    let mut grads = GradientsParams::from_grads(loss.backward(), &model);
+    if clip > 0.0 {
+        clip_global_norm(&model, &mut grads, clip);
+    }
     (optim.step(lr, model, grads), value)
 }
 
@@ -162,7 +206,8 @@ impl<F: Family> Session<'_, F> {
             total_steps: total,
             seed: self.config.train.seed,
             sampler: self.sampler.state(),
-            next_lr: self.config.schedule.lr(self.step, total),
+            next_lr: self.config.schedule.lr(self.step, total)
+                * self.family.lr_factor(&self.config),
             last_loss: self.last_loss,
             val_loss: (self.val_step == Some(self.step))
                 .then_some(self.val_loss)
@@ -281,8 +326,11 @@ impl<F: Family> Session<'_, F> {
     }
 }
 
-/// Trains (or continues) the FACT or QEAN run in `opts.run_dir` with `config`.
+/// Trains (or continues) the FACT, QEAN or TSMT run in `opts.run_dir` with `config`.
 pub fn train(config: RunConfig, opts: &TrainOptions) -> Result<TrainOutcome> {
+    if config.is_tsmt() {
+        return train_family(&mut crate::tsmt::TsmtFamily::default(), config, opts);
+    }
     train_family(&mut FactQean, config, opts)
 }
 
@@ -498,9 +546,10 @@ fn run_loop<F: Family>(s: &mut Session<F>, opts: &TrainOptions) -> Result<TrainO
         };
         let inputs = s.family.inputs(drawn, &s.model, &s.device, &ctx);
         s.device.seed(rng_seed);
-        let lr = s.config.schedule.lr(s.step, total);
+        let lr = s.config.schedule.lr(s.step, total) * s.family.lr_factor(&s.config);
         let loss = s.family.loss(&s.model, inputs, &s.config);
-        let (model, value) = apply_update(s.model.clone(), &mut s.optim, loss, lr);
+        let clip = s.config.optim.grad_clip_norm;
+        let (model, value) = apply_update(s.model.clone(), &mut s.optim, loss, lr, clip);
         if !value.is_finite() {
             reporter.finish();
             return Err(s.diverged(format!("the loss of update {} is {value}", s.step + 1)));
@@ -561,4 +610,59 @@ fn run_loop<F: Family>(s: &mut Session<F>, opts: &TrainOptions) -> Result<TrainO
             .unwrap_or_else(|| "-".into())
     );
     Ok(outcome(s, false, false, dir))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use burn::nn::LinearConfig;
+    use burn::tensor::TensorData;
+
+    /// PyTorch's clip_grad_norm_: one factor for every gradient, from the norm over all of them.
+    #[test]
+    fn clipping_scales_all_gradients_by_the_global_norm() {
+        let device = Device::flex().autodiff();
+        device.seed(3);
+        let model = LinearConfig::new(3, 2).init(&device);
+        let x = Tensor::<2>::from_data(TensorData::new(vec![1.0f32, -2.0, 3.0], [1, 3]), &device);
+        let loss = model.forward(x).sum().mul_scalar(5.0);
+        let grads = GradientsParams::from_grads(loss.backward(), &model);
+        let values = |g: &GradientsParams| {
+            let w = g.get::<2>(model.weight.id).unwrap();
+            let b = g.get::<1>(model.bias.as_ref().unwrap().id).unwrap();
+            let mut v = w.into_data().try_to_vec::<f32>().unwrap();
+            v.extend(b.into_data().try_to_vec::<f32>().unwrap());
+            v
+        };
+        let before = values(&grads);
+        let norm = before
+            .iter()
+            .map(|&g| (g as f64).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        // d(5·Σ(Wx + b))/dW = 5x per row, /db = 5: norm = 5·sqrt(2·14 + 2).
+        assert!((norm - 5.0 * 30f64.sqrt()).abs() < 1e-4, "{norm}");
+        let mut clipped = grads;
+        let reported = clip_global_norm(&model, &mut clipped, 0.25);
+        assert!((reported - norm).abs() < 1e-4);
+        let after = values(&clipped);
+        let factor = 0.25 / (norm + 1e-6);
+        for (a, b) in after.iter().zip(&before) {
+            assert!((*a as f64 - *b as f64 * factor).abs() < 1e-6, "{a} vs {b}");
+        }
+        // Below the limit nothing changes.
+        let mut same = GradientsParams::from_grads(
+            model
+                .forward(Tensor::<2>::from_data(
+                    TensorData::new(vec![1.0f32, -2.0, 3.0], [1, 3]),
+                    &device,
+                ))
+                .sum()
+                .mul_scalar(5.0)
+                .backward(),
+            &model,
+        );
+        clip_global_norm(&model, &mut same, 1e3);
+        assert_eq!(values(&same), before);
+    }
 }

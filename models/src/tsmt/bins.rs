@@ -59,26 +59,43 @@ impl Bins {
     /// Fits lo/hi on `coords` (frames × `dim`): per coordinate, or one range for all (`Shared`).
     /// hi is raised to at least lo + 1e-6 so every bin has a width.
     pub fn fit(coords: &[f64], dim: usize, n_bins: usize, mode: BinsMode) -> Result<Bins, String> {
-        if dim == 0 || coords.is_empty() || !coords.len().is_multiple_of(dim) {
-            return Err(format!(
-                "cannot fit bins: {} values are not whole frames of {dim} coordinates",
-                coords.len()
-            ));
-        }
-        if let Some(i) = coords.iter().position(|x| !x.is_finite()) {
-            return Err(format!(
-                "cannot fit bins: coordinate {} of frame {} is not finite",
-                i % dim,
-                i / dim
-            ));
-        }
+        Self::fit_many([coords], dim, n_bins, mode)
+    }
+
+    /// [`Bins::fit`] over several sequences at once (the training split, one sequence at a time).
+    pub fn fit_many<'a>(
+        sequences: impl IntoIterator<Item = &'a [f64]>,
+        dim: usize,
+        n_bins: usize,
+        mode: BinsMode,
+    ) -> Result<Bins, String> {
         let mut lo = vec![f64::INFINITY; dim];
         let mut hi = vec![f64::NEG_INFINITY; dim];
-        for frame in coords.chunks_exact(dim) {
-            for (d, &x) in frame.iter().enumerate() {
-                lo[d] = lo[d].min(x);
-                hi[d] = hi[d].max(x);
+        let mut frames = 0;
+        for coords in sequences {
+            if dim == 0 || !coords.len().is_multiple_of(dim) {
+                return Err(format!(
+                    "cannot fit bins: {} values are not whole frames of {dim} coordinates",
+                    coords.len()
+                ));
             }
+            if let Some(i) = coords.iter().position(|x| !x.is_finite()) {
+                return Err(format!(
+                    "cannot fit bins: coordinate {} of frame {} is not finite",
+                    i % dim,
+                    frames + i / dim
+                ));
+            }
+            for frame in coords.chunks_exact(dim) {
+                for (d, &x) in frame.iter().enumerate() {
+                    lo[d] = lo[d].min(x);
+                    hi[d] = hi[d].max(x);
+                }
+            }
+            frames += coords.len() / dim;
+        }
+        if frames == 0 {
+            return Err("cannot fit bins: no frames".into());
         }
         if mode == BinsMode::Shared {
             let (l, h) = (

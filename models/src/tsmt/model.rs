@@ -348,6 +348,27 @@ impl Tsmt {
     }
 }
 
+/// SPEC §11.6's closed-form parameter count (`tsmt_params`): trainable tensors, padding rows
+/// included, the frozen sinusoid tables not.
+pub fn tsmt_params(c: &TsmtConfig) -> usize {
+    tsmt_params_for(c, c.coords())
+}
+
+/// [`tsmt_params`] for `n` coordinates per frame (48: the reference's 16 H36M joints).
+pub fn tsmt_params_for(c: &TsmtConfig, n: usize) -> usize {
+    let blk = |d: usize, h: usize, dk: usize| {
+        2 * h * dk * (d + 1) + h * dk * (2 * d + 1) + 2 * d * d + 7 * d
+    };
+    let (cc, de, d, da) = (c.n_bins, c.embed, c.hidden, c.audio_hidden);
+    let pose = (cc + 1) * de + n * de * d + d + c.layers * blk(d, c.heads, c.head_dim);
+    let a_blk = c.audio_layers * blk(da, c.audio_heads, c.audio_head_dim);
+    let (audio, fused) = match c.audio_streams {
+        AudioStreams::Single => (900 + 61 * da + a_blk, d + da),
+        AudioStreams::Split => (900 + 2 * (31 * da + a_blk), d + 2 * da),
+    };
+    pose + audio + fused * n * c.d_out + n * c.d_out + c.d_out * cc + cc
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -355,21 +376,6 @@ mod tests {
 
     fn count(c: &TsmtConfig) -> usize {
         Tsmt::new(c, &Device::flex()).num_params()
-    }
-
-    /// SPEC §11.6's closed form.
-    fn formula(c: &TsmtConfig, n: usize) -> usize {
-        let blk = |d: usize, h: usize, dk: usize| {
-            2 * h * dk * (d + 1) + h * dk * (2 * d + 1) + 2 * d * d + 7 * d
-        };
-        let (cc, de, d, da) = (c.n_bins, c.embed, c.hidden, c.audio_hidden);
-        let pose = (cc + 1) * de + n * de * d + d + c.layers * blk(d, c.heads, c.head_dim);
-        let a_blk = c.audio_layers * blk(da, c.audio_heads, c.audio_head_dim);
-        let (audio, fused) = match c.audio_streams {
-            AudioStreams::Single => (900 + 61 * da + a_blk, d + da),
-            AudioStreams::Split => (900 + 2 * (31 * da + a_blk), d + 2 * da),
-        };
-        pose + audio + fused * n * c.d_out + n * c.d_out + c.d_out * cc + cc
     }
 
     /// A deterministic batch: tokens, MFCCs and beats as functions of (row, frame, coordinate).
@@ -494,14 +500,14 @@ mod tests {
                 ..TsmtConfig::tiny()
             },
         ] {
-            assert_eq!(count(&c), formula(&c, c.coords()), "{c:?}");
+            assert_eq!(count(&c), tsmt_params_for(&c, c.coords()), "{c:?}");
         }
         // The reference as released has n = 48 (16 H36M joints): 1,358,698, `split` 1,395,402.
         let split = TsmtConfig {
             audio_streams: AudioStreams::Split,
             ..paper.clone()
         };
-        assert_eq!(formula(&paper, 48), 1_358_698);
-        assert_eq!(formula(&split, 48), 1_395_402);
+        assert_eq!(tsmt_params_for(&paper, 48), 1_358_698);
+        assert_eq!(tsmt_params_for(&split, 48), 1_395_402);
     }
 }
