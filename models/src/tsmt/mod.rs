@@ -6,6 +6,7 @@ pub mod bins;
 pub mod draw;
 pub mod loss;
 pub mod model;
+pub mod sample;
 
 pub use bins::{coords_to_joints, pose_coords, Bins};
-pub use model::{Tsmt, TsmtInput};
+pub use model::{Tsmt, TsmtCache, TsmtInput};

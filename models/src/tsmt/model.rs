@@ -152,21 +152,44 @@ impl TsmtBlock {
     /// x [B, N, D] → [B, N, D] under the causal `bias` ([N, N]: 0 or −1e9); `mask` [B, N, 1] zeroes
     /// padding tokens after each sub-layer.
     fn forward(&self, x: Tensor<3>, bias: Tensor<4>, mask: Tensor<3>) -> Tensor<3> {
+        self.forward_with(x, bias, Some(mask), None)
+    }
+
+    /// The block over new tokens x [B, s, D] that attend to the `cache`d keys and values of the
+    /// tokens before them (appended to it); `bias` is [s, t + s]. Without a mask every token is valid.
+    fn forward_with(
+        &self,
+        x: Tensor<3>,
+        bias: Tensor<4>,
+        mask: Option<Tensor<3>>,
+        cache: Option<&mut Option<(Tensor<4>, Tensor<4>)>>,
+    ) -> Tensor<3> {
         let q = split_heads(self.query.forward(x.clone()), self.heads);
-        let k = split_heads(self.key.forward(x.clone()), self.heads);
-        let v = split_heads(self.value.forward(x.clone()), self.heads);
+        let mut k = split_heads(self.key.forward(x.clone()), self.heads);
+        let mut v = split_heads(self.value.forward(x.clone()), self.heads);
+        if let Some(cache) = cache {
+            if let Some((k0, v0)) = cache.take() {
+                k = Tensor::cat(vec![k0, k], 2);
+                v = Tensor::cat(vec![v0, v], 2);
+            }
+            *cache = Some((k.clone(), v.clone()));
+        }
         let scores = q
             .mul_scalar(1.0 / (self.head_dim as f64).sqrt())
             .matmul(k.swap_dims(2, 3))
             + bias;
         let probs = self.attention_dropout.forward(softmax(scores, 3));
         let z = self.output.forward(merge_heads(probs.matmul(v)));
-        let x = self
-            .attention_norm
-            .forward(x + self.residual_dropout.forward(z))
-            * mask.clone();
+        let masked = |y: Tensor<3>| match &mask {
+            Some(m) => y * m.clone(),
+            None => y,
+        };
+        let x = masked(
+            self.attention_norm
+                .forward(x + self.residual_dropout.forward(z)),
+        );
         let h = self.conv2.forward(relu(self.conv1.forward(x.clone())));
-        self.ffn_norm.forward(x + self.residual_dropout.forward(h)) * mask
+        masked(self.ffn_norm.forward(x + self.residual_dropout.forward(h)))
     }
 }
 
@@ -193,13 +216,55 @@ impl Stream {
     }
 
     fn forward(&self, x: Tensor<3>, ctx: &Context) -> Tensor<3> {
+        self.forward_with(x, ctx, None)
+    }
+
+    /// The stream over `ctx`'s tokens; with `cache`, over new tokens after the cached ones.
+    fn forward_with(&self, x: Tensor<3>, ctx: &Context, cache: Option<&mut KvCache>) -> Tensor<3> {
         let [b, _, _] = x.dims();
         let pe = sinusoid(&ctx.positions, b, self.width, &x.device());
         let mut h = self.embed_dropout.forward(self.input.forward(x) + pe);
-        for block in &self.blocks {
-            h = block.forward(h, ctx.bias.clone(), ctx.mask.clone());
+        match cache {
+            None => {
+                for block in &self.blocks {
+                    h = block.forward(h, ctx.bias.clone(), ctx.mask.clone());
+                }
+            }
+            Some(cache) => {
+                cache.layers.resize(self.blocks.len(), None);
+                for (block, kv) in self.blocks.iter().zip(&mut cache.layers) {
+                    h = block.forward_with(h, ctx.bias.clone(), None, Some(kv));
+                }
+            }
         }
         h
+    }
+}
+
+/// Keys and values of the tokens a stream has seen, per block: [B, H, t, d_k] each (SPEC §11.8
+/// step 4).
+#[derive(Clone, Debug, Default)]
+pub struct KvCache {
+    layers: Vec<Option<(Tensor<4>, Tensor<4>)>>,
+}
+
+/// The caches of every stream and how many tokens they hold (positions continue from there).
+#[derive(Clone, Debug, Default)]
+pub struct TsmtCache {
+    pose: KvCache,
+    audio: KvCache,
+    beat: KvCache,
+    len: usize,
+}
+
+impl TsmtCache {
+    /// Tokens cached so far.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
     }
 }
 
@@ -225,6 +290,21 @@ impl Context {
             positions,
             bias: Tensor::from_data(TensorData::new(bias, [1, 1, n, n]), device),
             mask: Tensor::from_data(TensorData::new(mask, [b, n, 1]), device),
+        }
+    }
+
+    /// `s` new valid tokens after `t` cached ones in each of `b` rows: positions t+1..t+s, and a
+    /// bias [s, t + s] hiding keys after each query.
+    fn after(b: usize, t: usize, s: usize, device: &Device) -> Self {
+        let positions = (0..b).flat_map(|_| t + 1..=t + s).collect();
+        let keys = t + s;
+        let bias: Vec<f32> = (0..s * keys)
+            .map(|i| if i % keys > t + i / keys { -1e9 } else { 0.0 })
+            .collect();
+        Self {
+            positions,
+            bias: Tensor::from_data(TensorData::new(bias, [1, 1, s, keys]), device),
+            mask: Tensor::ones([b, s, 1], device),
         }
     }
 }
@@ -307,15 +387,51 @@ impl Tsmt {
 
     /// Logits [B, N, n, C]: the distribution of each coordinate of the frame after each token.
     pub fn forward(&self, input: TsmtInput) -> Tensor<4> {
-        let [b, t, n] = input.tokens.dims();
-        let device = input.mfcc.device();
-        let ctx = Context::new(&input.lengths, t, &device);
+        let [_, t, _] = input.tokens.dims();
+        let ctx = Context::new(&input.lengths, t, &input.mfcc.device());
+        self.forward_with(input.tokens, input.mfcc, input.beat, &ctx, None)
+    }
+
+    /// Logits [B, s, n, C] of `s` new valid tokens (all rows alike) after the ones `cache` holds,
+    /// whose keys and values it keeps: running a sequence in pieces gives the logits of
+    /// [`Tsmt::forward`] on the whole (attention is causal, the rest per token).
+    pub fn forward_cached(
+        &self,
+        tokens: Tensor<3, Int>,
+        mfcc: Tensor<3>,
+        beat: Tensor<2, Int>,
+        cache: &mut TsmtCache,
+    ) -> Tensor<4> {
+        let [b, s, _] = tokens.dims();
+        let ctx = Context::after(b, cache.len, s, &mfcc.device());
+        let logits = self.forward_with(tokens, mfcc, beat, &ctx, Some(cache));
+        cache.len += s;
+        logits
+    }
+
+    fn forward_with(
+        &self,
+        tokens: Tensor<3, Int>,
+        mfcc: Tensor<3>,
+        beat: Tensor<2, Int>,
+        ctx: &Context,
+        cache: Option<&mut TsmtCache>,
+    ) -> Tensor<4> {
+        let [b, t, n] = tokens.dims();
         let e = self
             .pose_embed
-            .lookup(input.tokens.reshape([b * t * n]))
+            .lookup(tokens.reshape([b * t * n]))
             .reshape([b, t, n * self.pose_embed.table.dims()[1]]);
-        let zx = self.pose.forward(e, &ctx);
-        let za = self.audio_forward(input.mfcc, input.beat, &ctx);
+        let (zx, za) = match cache {
+            None => (
+                self.pose.forward(e, ctx),
+                self.audio_forward(mfcc, beat, ctx, None),
+            ),
+            Some(c) => (
+                self.pose.forward_with(e, ctx, Some(&mut c.pose)),
+                self.audio_forward(mfcc, beat, ctx, Some((&mut c.audio, &mut c.beat))),
+            ),
+        };
         let u = self.fuse.forward(Tensor::cat(vec![zx, za], 2)).reshape([
             b,
             t,
@@ -325,7 +441,13 @@ impl Tsmt {
         self.classifier.forward(u)
     }
 
-    fn audio_forward(&self, mfcc: Tensor<3>, beat: Tensor<2, Int>, ctx: &Context) -> Tensor<3> {
+    fn audio_forward(
+        &self,
+        mfcc: Tensor<3>,
+        beat: Tensor<2, Int>,
+        ctx: &Context,
+        cache: Option<(&mut KvCache, &mut KvCache)>,
+    ) -> Tensor<3> {
         let [b, t] = beat.dims();
         let m = tanh(self.audio.mfcc.forward(mfcc));
         let bt = self
@@ -333,10 +455,20 @@ impl Tsmt {
             .beat
             .lookup(beat.reshape([b * t]))
             .reshape([b, t, AUDIO_EMBED]);
+        let (audio_cache, beat_cache) = match cache {
+            Some((a, b)) => (Some(a), Some(b)),
+            None => (None, None),
+        };
         match &self.audio.beat_stream {
-            None => self.audio.stream.forward(Tensor::cat(vec![m, bt], 2), ctx),
+            None => self
+                .audio
+                .stream
+                .forward_with(Tensor::cat(vec![m, bt], 2), ctx, audio_cache),
             Some(beats) => Tensor::cat(
-                vec![beats.forward(bt, ctx), self.audio.stream.forward(m, ctx)],
+                vec![
+                    beats.forward_with(bt, ctx, beat_cache),
+                    self.audio.stream.forward_with(m, ctx, audio_cache),
+                ],
                 2,
             ),
         }
