@@ -60,15 +60,7 @@ pub enum AudioStreams {
 }
 
 /// Inverse kinematics from positions to SMPL rotations (SPEC §11.3).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum IkMode {
-    /// The minimal rotation onto each bone (zero twist relative to the parent).
-    #[default]
-    Swing,
-    /// Knees about local x, elbows about local y; the parent's twist solved to match.
-    Hinge,
-}
+pub use qean_motion::ik::IkMode;
 
 /// The `[tsmt]` table.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

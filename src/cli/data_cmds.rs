@@ -172,12 +172,17 @@ pub fn render(a: RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Convert a motion between formats: an AIST++ .pkl or a .npy of model vectors (frames, 225|219) to .bvh (SMPL
-/// skeleton, 60 fps, centimetres), .npy (joint positions, frames × 24 × 3) or .pkl (AIST++ format).
+/// Convert a motion between formats: an AIST++ .pkl, a .npy of model vectors (frames, 225|219), or joint
+/// positions (a .npy of (frames, 24, 3), e.g. another system's output, or an SMPL-skeleton .bvh) to .bvh (SMPL
+/// skeleton, 60 fps, centimetres), .npy (joint positions, frames × 24 × 3) or .pkl (AIST++ format). Joint
+/// positions become SMPL rotations by inverse kinematics (SPEC §11.3), with the bones at SMPL's lengths.
 #[derive(Args, Debug)]
-#[command(about = "Convert a motion between .pkl, .npy and .bvh")]
+#[command(
+    about = "Convert a motion between .pkl, .npy and .bvh (joint positions → rotations by IK)",
+    after_help = "Examples:\n  qean convert dance.pkl --out dance.bvh\n  qean convert other_system.joints.npy --out dance.pkl\n  qean convert other_system.joints.npy --out dance.bvh --ik hinge"
+)]
 pub struct ConvertArgs {
-    /// Input motion: .pkl (AIST++) or .npy (frames, 225|219).
+    /// Input motion: .pkl (AIST++), .npy (frames, 225|219) or joint positions (.npy (frames, 24, 3), .bvh).
     pub motion: PathBuf,
     /// Output file; the format follows the extension (.bvh, .npy, .pkl).
     #[arg(long)]
@@ -185,14 +190,62 @@ pub struct ConvertArgs {
     /// Root convention for joint positions and the BVH root channel.
     #[arg(long, value_enum, default_value_t = RootArg::Smpl)]
     pub root: RootArg,
+    /// Inverse kinematics for joint-position inputs: `swing` (minimal rotation per bone, stable) or
+    /// `hinge` (knees and elbows bend about one axis, twist moved to the hips and shoulders).
+    #[arg(long, value_enum, default_value_t = IkArg::Swing)]
+    pub ik: IkArg,
+}
+
+/// `--ik` values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum IkArg {
+    Swing,
+    Hinge,
+}
+
+impl IkArg {
+    pub fn mode(self) -> qean_motion::ik::IkMode {
+        match self {
+            IkArg::Swing => qean_motion::ik::IkMode::Swing,
+            IkArg::Hinge => qean_motion::ik::IkMode::Hinge,
+        }
+    }
+}
+
+/// Whether a motion file holds joint positions rather than rotations: a (frames, 24, 3) .npy or a BVH.
+fn holds_positions(path: &std::path::Path) -> anyhow::Result<bool> {
+    Ok(match qean_io::fsutil::extension_lower(path).as_str() {
+        "bvh" => true,
+        "npy" => qean_io::npy::read(path)?.shape.len() == 3,
+        _ => false,
+    })
 }
 
 pub fn convert(a: ConvertArgs) -> anyhow::Result<()> {
-    let motion = qean_motion::motion::read_motion(&a.motion)?;
+    let root = a.root.fk();
+    let motion = if holds_positions(&a.motion)? {
+        let joints = qean_motion::joints_file::load_joints(&a.motion, root)?;
+        let motion = qean_motion::ik::motion_from_joints(&joints, a.ik.mode(), root);
+        let back = motion.joints(root);
+        let mean = joints
+            .iter()
+            .zip(&back)
+            .map(|(p, q)| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt())
+            .sum::<f64>()
+            / joints.len() as f64;
+        println!(
+            "inverse kinematics ({:?}): mean joint distance after FK {:.2} mm (bones at SMPL lengths)",
+            a.ik,
+            mean * 1000.0
+        );
+        motion
+    } else {
+        qean_motion::motion::read_motion(&a.motion)?
+    };
     let ext = qean_io::fsutil::extension_lower(&a.out);
     match ext.as_str() {
-        "bvh" => qean_motion::bvh::write(&a.out, &motion, a.root.fk())?,
-        "npy" => qean_motion::joints_file::write_joints(&a.out, &motion.joints(a.root.fk()))?,
+        "bvh" => qean_motion::bvh::write(&a.out, &motion, root)?,
+        "npy" => qean_motion::joints_file::write_joints(&a.out, &motion.joints(root))?,
         "pkl" => motion.write_pkl(&a.out, qean_motion::motion::Precision::F64)?,
         _ => anyhow::bail!(
             "{}: unknown output format (use .bvh, .npy or .pkl)",
