@@ -425,6 +425,9 @@ fn dance(
             seam_frames: ck.config.recipe.seam_frames,
             render: true,
             backend: ck.config.train.backend,
+            temperature: None,
+            top_k: None,
+            sample_seed: 0,
         },
         &dir,
         |done, total| {

@@ -324,6 +324,24 @@ impl RunConfig {
         self.tsmt.clone().unwrap_or_default()
     }
 
+    /// Ground-truth frames a generated dance starts with: the model's motion window (FACT, QEAN) or
+    /// `tsmt.seed_frames`.
+    pub fn seed_frames(&self) -> usize {
+        match (&self.tsmt, self.is_tsmt()) {
+            (Some(t), true) => t.seed_frames,
+            _ => self.model.motion_len,
+        }
+    }
+
+    /// The shortest music the sampler can dance to: the music window (FACT, QEAN), or the seed
+    /// and one frame to hear (TSMT).
+    pub fn min_music_frames(&self) -> usize {
+        match (&self.tsmt, self.is_tsmt()) {
+            (Some(t), true) => t.seed_frames + 1,
+            _ => self.model.audio_len,
+        }
+    }
+
     /// The window lengths the model sees (SPEC §1.5: the target follows the motion input; TSMT,
     /// §11.7: W input frames, the W frames after each, and the music rows s..s+W, of which the
     /// model takes s+1..s+W).

@@ -70,12 +70,15 @@ pub fn load_song(path: &Path, name: Option<&str>, audio_len: usize) -> Result<So
     })
 }
 
-/// The seed: `motion_len` frames in the model's layout.
+/// The seed: the run's seed frames (`model.motion_len`, or `tsmt.seed_frames`) in the model's layout.
 pub fn seed_motion(source: &SeedSource, start: SeedStart, ck: &Checkpoint) -> Result<Vec<f32>> {
-    let n = ck.config.model.motion_len;
-    let layout = ck.config.layout();
+    Ok(seed_clip(source, start, ck.config.seed_frames())?.to_layout(ck.config.layout()))
+}
+
+/// `n` seed frames from `source`, as a motion.
+pub fn seed_clip(source: &SeedSource, start: SeedStart, n: usize) -> Result<Motion> {
     let (motion, path) = match source {
-        SeedSource::Standing => return Ok(Motion::standing(n, FkRoot::Smpl).to_layout(layout)),
+        SeedSource::Standing => return Ok(Motion::standing(n, FkRoot::Smpl)),
         SeedSource::Pickle(p) => (Motion::read_pkl(p)?, p.clone()),
         SeedSource::Sequence { data, name } => {
             let ds = Dataset::open(data)?;
@@ -96,7 +99,7 @@ pub fn seed_motion(source: &SeedSource, start: SeedStart, ck: &Checkpoint) -> Re
         ));
     }
     let s = start.starts(&[motion.frames], n)[0];
-    Ok(motion.slice(s, s + n).to_layout(layout))
+    Ok(motion.slice(s, s + n))
 }
 
 /// Sampling settings of `qean sample`.
@@ -112,6 +115,10 @@ pub struct GenerateOptions {
     pub seam_frames: usize,
     pub render: bool,
     pub backend: qean_models::backend::Backend,
+    /// Categorical sampling (TSMT): temperature, top-k and the seed of the draws (None: the run's).
+    pub temperature: Option<f64>,
+    pub top_k: Option<usize>,
+    pub sample_seed: u64,
 }
 
 /// What was written for one song.
@@ -125,6 +132,16 @@ pub struct Generated {
     pub joints: Vec<[f64; 3]>,
 }
 
+/// The output directory must be writable before minutes of sampling are spent.
+pub fn prepare_out(out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let probe = qean_io::fsutil::temp_sibling(&out.join("probe"));
+    std::fs::write(&probe, b"")
+        .map_err(|e| Error::at(out, format!("output directory is not writable: {e}")))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// Generates a dance for every song (one batch) from the same seed and writes the exports to
 /// `out` (all files of a song or none).
 pub fn generate(
@@ -133,20 +150,20 @@ pub fn generate(
     seed: &[f32],
     opts: &GenerateOptions,
     out: &Path,
-    progress: impl FnMut(usize, usize),
+    mut progress: impl FnMut(usize, usize),
 ) -> Result<Vec<Generated>> {
+    prepare_out(out)?;
+    if ck.config.is_tsmt() {
+        let layout = ck.config.layout();
+        let seed = Motion::from_layout(seed, layout).map_err(Error::msg)?;
+        return crate::tsmt::generate(ck, songs, &seed, opts, out, &mut progress);
+    }
     qean_config::recipe::check_ensemble(
         ("ensemble", opts.ensemble),
         ("ensemble decay", opts.ensemble_decay),
         ck.config.model.target_len,
     )
     .map_err(Error::msg)?;
-    // The output directory must be writable before minutes of sampling are spent.
-    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
-    let probe = qean_io::fsutil::temp_sibling(&out.join("probe"));
-    std::fs::write(&probe, b"")
-        .map_err(|e| Error::at(out, format!("output directory is not writable: {e}")))?;
-    let _ = std::fs::remove_file(&probe);
     let device =
         qean_models::backend::device(opts.backend).map_err(|e| Error::msg(e.to_string()))?;
     let model = ck.load_model(&device)?;
@@ -183,8 +200,9 @@ pub fn generate(
         }
         debug_assert_eq!(s.features.data.len(), s.features.frames * AUDIO_DIM);
     }
-    let dances = qean_models::sampler::sample(&model, &device, &requests, &sample_opts, progress)
-        .map_err(|e| Error::msg(e.to_string()))?;
+    let dances =
+        qean_models::sampler::sample(&model, &device, &requests, &sample_opts, &mut progress)
+            .map_err(|e| Error::msg(e.to_string()))?;
     let seed_frames = ck.config.model.motion_len;
     let d = sample_opts.layout.dim();
     let mut written = Vec::new();

@@ -7,5 +7,6 @@ pub mod curves;
 pub mod error;
 pub mod evaluate;
 pub mod generate;
+pub mod tsmt;
 
 pub use error::{Error, Result};

@@ -20,7 +20,10 @@ use qean_train::checkpoint;
 ///   NAME.png/.gif    with --render: a contact sheet with the music's beats marked, and an
 ///                    animation
 /// Every output starts with the seed frames (the run's `model.motion_len`: 120 for mint's FACT,
-/// 30 in the demo).
+/// 30 in the demo; TSMT: `tsmt.seed_frames`, 120).
+///
+/// TSMT runs draw every joint coordinate from its predicted bins: --temperature, --top-k and
+/// --sample-seed choose how (same seed, same dance); FACT and QEAN are deterministic and ignore them.
 ///
 /// Example: qean sample --run runs/full --music song.ogg --out dances --render
 #[derive(Args, Debug)]
@@ -86,6 +89,15 @@ pub struct SampleArgs {
     /// Backend (default: the run's).
     #[arg(long, value_enum)]
     pub backend: Option<qean_models::backend::Backend>,
+    /// TSMT: sampling temperature (0 = the most likely bin; default: the run's tsmt.temperature, 1).
+    #[arg(long)]
+    pub temperature: Option<f64>,
+    /// TSMT: draw only from the k most likely bins (0 = all; default: the run's tsmt.top_k).
+    #[arg(long)]
+    pub top_k: Option<usize>,
+    /// TSMT: seed of the draws.
+    #[arg(long, default_value_t = 0)]
+    pub sample_seed: u64,
 }
 
 pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
@@ -96,7 +108,17 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         bail!("--frames must be at least 1");
     }
     let ck = checkpoint::resolve_in_run(&a.run, a.checkpoint.as_deref())?;
-    let audio_len = ck.config.model.audio_len;
+    if !ck.config.is_tsmt() && (a.temperature.is_some() || a.top_k.is_some() || a.sample_seed != 0)
+    {
+        tracing::warn!(
+            "--temperature, --top-k and --sample-seed are for TSMT runs; this {:?} run is deterministic and ignores them",
+            ck.config.model.arch
+        );
+    }
+    if let Some(t) = a.temperature.filter(|t| !(t.is_finite() && *t >= 0.0)) {
+        bail!("--temperature must be ≥ 0, got {t}");
+    }
+    let audio_len = ck.config.min_music_frames();
     let mut songs = Vec::new();
     for path in &a.music {
         songs.push(generate::load_song(path, a.name.as_deref(), audio_len)?);
@@ -122,6 +144,9 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         seam_frames: a.seam_frames.unwrap_or(ck.config.recipe.seam_frames),
         render: a.render,
         backend: a.backend.unwrap_or(ck.config.train.backend),
+        temperature: a.temperature,
+        top_k: a.top_k,
+        sample_seed: a.sample_seed,
     };
     let pb = qean_train::progress::bar(a.frames as u64, "", "frames");
     let written = generate::generate(&ck, &songs, &seed, &opts, &a.out, |done, total| {
@@ -131,7 +156,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
     pb.finish_and_clear();
     println!("checkpoint: {} (step {})", ck.dir.display(), ck.state.step);
     let reference = energy_reference(&a.run, &ck);
-    let seed_frames = ck.config.model.motion_len;
+    let seed_frames = ck.config.seed_frames();
     for g in &written {
         println!(
             "{}: {} seed + {} generated frames",

@@ -41,8 +41,9 @@ pub struct TsmtSampling {
 
 /// Generates `frames` frames after each row's seed tokens (`seeds[b]`: seed frames × n, every row
 /// the same length), hearing `audio[b]` (the row for frame f is audio frame f + 1; past its end,
-/// padding). Returns each row's tokens, seed included. `record` receives every step's logits
-/// [B, n, C] (tests).
+/// padding). Returns each row's tokens, seed included. `progress(done, frames)` is called after
+/// every step; `record` receives every step's logits [B, n, C] (tests).
+#[allow(clippy::too_many_arguments)]
 pub fn generate(
     model: &Tsmt,
     device: &Device,
@@ -50,6 +51,7 @@ pub fn generate(
     audio: &[TsmtAudio],
     frames: usize,
     opts: &TsmtSampling,
+    progress: &mut dyn FnMut(usize, usize),
     mut record: Option<&mut Vec<Vec<f32>>>,
 ) -> Vec<Vec<u16>> {
     let n = model.coords();
@@ -102,6 +104,7 @@ pub fn generate(
         if let Some(r) = record.as_deref_mut() {
             r.push(last);
         }
+        progress(g + 1 - seed_len, frames);
     }
     out
 }
@@ -192,7 +195,16 @@ mod tests {
                 Some(&mut cached),
             );
             opts.cache = false;
-            let b = generate(&model, &device, &seeds, &audio, 100, &opts, Some(&mut full));
+            let b = generate(
+                &model,
+                &device,
+                &seeds,
+                &audio,
+                100,
+                &opts,
+                &mut |_, _| {},
+                Some(&mut full),
+            );
             assert_eq!(a, b, "stride {stride}: tokens");
             let worst = cached
                 .iter()
@@ -227,15 +239,42 @@ mod tests {
             seed: 3,
             cache: true,
         };
-        let a = generate(&model, &device, &seeds, &audio, 20, &opts, None);
+        let a = generate(
+            &model,
+            &device,
+            &seeds,
+            &audio,
+            20,
+            &opts,
+            &mut |_, _| {},
+            None,
+        );
         assert_eq!(
             a,
-            generate(&model, &device, &seeds, &audio, 20, &opts, None)
+            generate(
+                &model,
+                &device,
+                &seeds,
+                &audio,
+                20,
+                &opts,
+                &mut |_, _| {},
+                None
+            )
         );
         let other = TsmtSampling { seed: 4, ..opts };
         assert_ne!(
             a,
-            generate(&model, &device, &seeds, &audio, 20, &other, None)
+            generate(
+                &model,
+                &device,
+                &seeds,
+                &audio,
+                20,
+                &other,
+                &mut |_, _| {},
+                None
+            )
         );
         // τ = 0 ignores the uniforms.
         let greedy = TsmtSampling {
@@ -243,7 +282,16 @@ mod tests {
             ..opts
         };
         assert_eq!(
-            generate(&model, &device, &seeds, &audio, 20, &greedy, None),
+            generate(
+                &model,
+                &device,
+                &seeds,
+                &audio,
+                20,
+                &greedy,
+                &mut |_, _| {},
+                None
+            ),
             generate(
                 &model,
                 &device,

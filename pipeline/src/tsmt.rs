@@ -1,0 +1,142 @@
+//! TSMT dances from a checkpoint (SPEC §11.8): the seed quantised with the run's bins, the songs'
+//! MFCC + Δ rows and beats, the KV-cached categorical sampler, then decoding (§11.2), the root
+//! (`drop`: the last seed frame's; `delta`: integrated) and inverse kinematics (§11.3) to SMPL
+//! rotations, exported like every other dance (pkl, joints .npy, BVH, previews).
+
+use std::path::Path;
+
+use qean_audio::delta::tsmt_audio;
+use qean_config::tsmt::TsmtConfig;
+use qean_io::error::{Error, Result};
+use qean_models::tsmt::sample::{generate as sample_tokens, TsmtAudio, TsmtSampling};
+use qean_models::tsmt::{coords_to_joints, pose_coords, Bins};
+use qean_motion::fk::FkRoot;
+use qean_motion::ik::motion_from_joints;
+use qean_motion::motion::{Layout, Motion};
+use qean_motion::skeleton::NUM_JOINTS;
+use qean_render::export::{export_dance, ExportOptions};
+use qean_train::checkpoint::Checkpoint;
+use qean_train::tsmt::TsmtFamily;
+
+use crate::generate::{GenerateOptions, Generated, Song};
+
+/// The sampling settings of a TSMT run with `opts`' overrides.
+pub fn sampling(t: &TsmtConfig, opts: &GenerateOptions) -> TsmtSampling {
+    TsmtSampling {
+        temperature: opts.temperature.unwrap_or(t.temperature),
+        top_k: opts.top_k.unwrap_or(t.top_k),
+        window: t.window,
+        slide_stride: t.slide_stride,
+        seed: opts.sample_seed,
+        cache: true,
+    }
+}
+
+/// A song as TSMT hears it.
+pub fn song_audio(song: &Song) -> TsmtAudio {
+    let (mfcc, beats) = tsmt_audio(&song.features.data, song.features.frames);
+    TsmtAudio {
+        mfcc,
+        beats,
+        frames: song.features.frames,
+    }
+}
+
+/// The run's bins (stored in its config, never refitted).
+pub fn run_bins(ck: &Checkpoint) -> Result<Bins> {
+    ck.config
+        .tsmt
+        .as_ref()
+        .and_then(Bins::from_config)
+        .ok_or_else(|| Error::at(&ck.dir, "the TSMT checkpoint's config has no bins"))
+}
+
+/// The dance of one row: the seed motion as given, then the generated tokens decoded, rooted and
+/// turned into rotations by IK.
+pub fn decode_dance(t: &TsmtConfig, bins: &Bins, seed: &Motion, tokens: &[u16]) -> Motion {
+    let n = t.coords();
+    let generated = &tokens[seed.frames * n..];
+    let seed_joints = seed.joints(FkRoot::Smpl);
+    let start = seed_joints[(seed.frames - 1) * NUM_JOINTS];
+    let joints = coords_to_joints(&bins.decode(generated), t.root_mode, start);
+    let tail = motion_from_joints(&joints, t.ik, FkRoot::Smpl);
+    let mut poses = seed.poses.clone();
+    poses.extend_from_slice(&tail.poses);
+    let mut trans: Vec<f64> = seed.trans.iter().map(|x| x / seed.scaling).collect();
+    trans.extend_from_slice(&tail.trans);
+    Motion::new(poses, trans, 1.0).expect("whole frames")
+}
+
+/// Generated frames for a song: `frames`, or fewer when the music ends first (the frame predicted
+/// at step g hears music frame g).
+pub fn generated_len(frames: usize, seed_frames: usize, music_frames: usize) -> usize {
+    frames.min(music_frames.saturating_sub(seed_frames))
+}
+
+/// Dances for `songs` (one batch) from `seed`, written to `out`.
+pub fn generate(
+    ck: &Checkpoint,
+    songs: &[Song],
+    seed: &Motion,
+    opts: &GenerateOptions,
+    out: &Path,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Vec<Generated>> {
+    let t = ck.config.tsmt();
+    let bins = run_bins(ck)?;
+    let device =
+        qean_models::backend::device(opts.backend).map_err(|e| Error::msg(e.to_string()))?;
+    let model = qean_train::family::load_checkpoint_model(&TsmtFamily::default(), ck, &device)?;
+    let seed_tokens = bins.encode(&pose_coords(&seed.joints(FkRoot::Smpl), t.root_mode));
+    let lengths: Vec<usize> = songs
+        .iter()
+        .map(|s| generated_len(opts.frames, seed.frames, s.features.frames))
+        .collect();
+    for (s, &l) in songs.iter().zip(&lengths) {
+        if l < opts.frames {
+            tracing::warn!(
+                "{}: the music ends after {} frames: generating {l} frames instead of {}",
+                s.path.display(),
+                s.features.frames,
+                opts.frames
+            );
+        }
+    }
+    let longest = lengths.iter().copied().max().unwrap_or(0);
+    let audio: Vec<TsmtAudio> = songs.iter().map(song_audio).collect();
+    let seeds = vec![seed_tokens; songs.len()];
+    let rows = sample_tokens(
+        &model,
+        &device,
+        &seeds,
+        &audio,
+        longest,
+        &sampling(&t, opts),
+        progress,
+        None,
+    );
+    let n = t.coords();
+    let mut written = Vec::new();
+    for ((song, tokens), &l) in songs.iter().zip(&rows).zip(&lengths) {
+        let motion = decode_dance(&t, &bins, seed, &tokens[..(seed.frames + l) * n]);
+        let paths = export_dance(
+            out,
+            &song.name,
+            &motion.to_layout(Layout::L219),
+            Layout::L219,
+            &ExportOptions {
+                seed_frames: seed.frames,
+                beats: Some(song.features.beats.clone()),
+                render: opts.render,
+                root: FkRoot::Smpl,
+            },
+        )?;
+        written.push(Generated {
+            name: song.name.clone(),
+            generated: l,
+            paths,
+            joints: motion.joints(FkRoot::Smpl),
+        });
+    }
+    Ok(written)
+}
