@@ -129,6 +129,10 @@ pub struct Args {
     /// Music frame of each generated file's frame 0.
     #[arg(long, default_value_t = 0)]
     pub music_offset: usize,
+    /// Beat precision/recall/F1 (Li et al.): motion beats match the paired reference's within this
+    /// many frames (SPEC §11.9; 2 = the paper's literal frame count).
+    #[arg(long, default_value_t = 5)]
+    pub beat_tol: usize,
     /// Write the full report (per-sequence values included) here as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -171,6 +175,8 @@ impl Args {
                 seed_frames: self.seed_frames,
                 max_frames: self.max_frames,
                 music_offset: self.music_offset,
+                beat_tol: self.beat_tol,
+                ..EvalConfig::default()
             })
             .collect()
     }

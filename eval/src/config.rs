@@ -89,6 +89,42 @@ pub struct EvalConfig {
     pub max_frames: usize,
     /// Music frame of each generated sequence's frame 0 (0 when the seed is the first GT frames).
     pub music_offset: usize,
+    /// Beat P/R/F1 (SPEC §11.9): motion beats match within this many frames (5; the seed's ±2 at
+    /// 24 fps is 2 here as a literal frame count).
+    #[serde(default = "default_beat_tol")]
+    pub beat_tol: usize,
+    /// σ of the Gaussian smoothing of the Kim-style motion beats (5; 0 = none).
+    #[serde(default = "default_kim_sigma")]
+    pub kim_sigma: f64,
+    /// I-seq-D's chunk length in frames (240).
+    #[serde(default = "default_chunk")]
+    pub chunk: usize,
+    /// Degrees added to every Authenticity joint limit (10).
+    #[serde(default = "default_slack")]
+    pub limit_slack_deg: f64,
+    /// Coherence's fastest joint turn, degrees per second (1500).
+    #[serde(default = "default_omega_max")]
+    pub omega_max_deg_s: f64,
+}
+
+fn default_beat_tol() -> usize {
+    5
+}
+
+fn default_kim_sigma() -> f64 {
+    5.0
+}
+
+fn default_chunk() -> usize {
+    240
+}
+
+fn default_slack() -> f64 {
+    10.0
+}
+
+fn default_omega_max() -> f64 {
+    1500.0
 }
 
 impl Default for EvalConfig {
@@ -103,6 +139,11 @@ impl Default for EvalConfig {
             seed_frames: 120,
             max_frames: 1200,
             music_offset: 0,
+            beat_tol: default_beat_tol(),
+            kim_sigma: default_kim_sigma(),
+            chunk: default_chunk(),
+            limit_slack_deg: default_slack(),
+            omega_max_deg_s: default_omega_max(),
         }
     }
 }

@@ -14,13 +14,17 @@ pub mod config;
 pub mod curves;
 pub mod dirs;
 pub mod dist;
+pub mod diversity;
 pub mod error;
 pub mod fid;
 pub mod geometric;
 pub mod io;
 pub mod kinetic;
+pub mod li_metrics;
+pub mod motion_beats;
 pub mod motion_energy;
 pub mod normalise;
+pub mod plausibility;
 pub mod positions;
 pub mod protocol;
 pub mod report;
@@ -31,6 +35,7 @@ pub use config::{
     BaSegment, BaVariant, EvalConfig, GeometricVariant, MetricsMode, MusicBeatSource, PositionMode,
 };
 pub use error::{Error, Result};
+pub use li_metrics::LiMetrics;
 pub use motion_energy::{EnergyReference, MotionEnergy};
 pub use positions::{Frame, Sequence, N_JOINTS};
 pub use protocol::{evaluate, features_of, BeatLookup, Features};

@@ -13,6 +13,7 @@ use crate::error::{Error, Result};
 use crate::fid::fid;
 use crate::geometric::geometric_features;
 use crate::kinetic::{self, kinetic_features};
+use crate::li_metrics::li_metrics;
 use crate::motion_energy::{motion_energy, EnergyReference};
 use crate::normalise::Normaliser;
 use crate::positions::{check_finite, prepare, Frame, Sequence};
@@ -318,6 +319,7 @@ pub fn evaluate(
         norm_k,
         norm_g,
     } = distribution(&gen_feats, &ref_feats)?;
+    let li = li_metrics(&gen, &refs, cfg, &norm_k, (div_k, gt_div_k))?;
     let Beats {
         scores,
         gt_scores,
@@ -382,6 +384,7 @@ pub fn evaluate(
         energy_reference: Some(energy_reference),
         sequences,
         excluded,
+        li,
     };
     report.check_finite()?;
     Ok(report)

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{value_name, EvalConfig};
 use crate::error::{Error, Result};
+use crate::li_metrics::LiMetrics;
 use crate::motion_energy::{EnergyReference, MotionEnergy};
 
 /// Per generated sequence: its evaluated length, BeatAlign under both variants and the raw
@@ -70,6 +71,10 @@ pub struct MetricsReport {
     pub energy_reference: Option<EnergyReference>,
     pub sequences: Vec<SequenceMetrics>,
     pub excluded: Vec<Exclusion>,
+    /// The TSMT paper's metrics (beat P/R/F1, A-/I-/S-music-D, Authenticity, Coherence), as top-level
+    /// keys.
+    #[serde(flatten)]
+    pub li: LiMetrics,
 }
 
 impl MetricsReport {
@@ -110,6 +115,7 @@ impl MetricsReport {
         if let Some(e) = &self.motion_energy {
             named.extend(energy("", e));
         }
+        named.extend(self.li.named().into_iter().map(|(k, v)| (k.to_string(), v)));
         for s in &self.sequences {
             if let Some(e) = &s.motion_energy {
                 named.extend(energy(&format!("{} ", s.name), e));
@@ -180,6 +186,7 @@ pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
             r.label
         ));
     }
+    out.push_str(&li_block(rows));
     if let Some(reference) = rows.first().and_then(|(_, r)| r.energy_reference) {
         out.push_str(&format!(
             "- motion energy: ratios to the reference set's mean joint speed {:.3} m/s and acceleration {:.2} m/s² \
@@ -188,6 +195,47 @@ pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
             reference.accel,
             reference.sequences,
             reference.freeze_threshold()
+        ));
+    }
+    out
+}
+
+/// The second block: the TSMT paper's metrics (SPEC §11.9–11.11).
+fn li_block(rows: &[(&str, &MetricsReport)]) -> String {
+    let mut out = String::from(
+        "\n| Methods (Li et al. 2020 metrics) | beat P ↑ | beat R ↑ | beat F1 ↑ | A-seq-D ↑ | I-seq-D ↑ | S-music-D ↑ | Authenticity ↑ | Coherence ↑ |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    if let Some((_, gt)) = rows.first() {
+        let l = &gt.li;
+        out.push_str(&format!(
+            "| AIST++ | - | - | - | {:.3} | {} | - | {:.3} | {:.3} |\n",
+            l.gt_a_seq_d,
+            opt(l.gt_i_seq_d, 3),
+            l.gt_authenticity,
+            l.gt_coherence
+        ));
+    }
+    for (name, r) in rows {
+        let l = &r.li;
+        out.push_str(&format!(
+            "| {name} | {} | {} | {} | {:.3} | {} | {} | {:.3} | {:.3} |\n",
+            opt(l.beat_precision, 3),
+            opt(l.beat_recall, 3),
+            opt(l.beat_f1, 3),
+            l.a_seq_d,
+            opt(l.i_seq_d, 3),
+            opt(l.s_music_d, 3),
+            l.authenticity,
+            l.coherence
+        ));
+    }
+    if let Some((_, r)) = rows.first() {
+        let c = &r.config;
+        out.push_str(&format!(
+            "\n- Li et al. metrics: motion beats (Kim-style, σ {}) vs the same-named reference's within ±{} frames over {} sequences; \
+             A-seq-D = Dist_k; I-seq-D over {}-frame chunks; S-music-D needs several rollouts per music (checkpoint mode); \
+             Authenticity with {}° slack (hinge IK), Coherence below {}°/s (swing IK)\n",
+            c.kim_sigma, c.beat_tol, r.li.n_beat_prf, c.chunk, c.limit_slack_deg, c.omega_max_deg_s
         ));
     }
     out

@@ -58,6 +58,27 @@ fn full_report_is_finite_and_tagged() {
     assert!(md.contains("| AIST++ | - | - |"));
     assert!(md.contains("BeatAlign = bailando variant"), "{md}");
     assert!(md.contains("metrics_mode=reference"));
+    // The TSMT paper's metrics: top-level keys and the second markdown block.
+    let value: serde_json::Value = serde_json::from_str(&json).unwrap();
+    for key in [
+        "beat_precision",
+        "beat_recall",
+        "beat_f1",
+        "a_seq_d",
+        "i_seq_d",
+        "s_music_d",
+        "authenticity",
+        "coherence",
+        "gt_a_seq_d",
+        "gt_authenticity",
+        "gt_coherence",
+    ] {
+        assert!(value.get(key).is_some(), "{key} missing: {json}");
+    }
+    assert_eq!(rep.li.a_seq_d, rep.div_k);
+    assert_eq!(rep.li.n_beat_prf, 6);
+    assert!((0.0..=1.0).contains(&rep.li.beat_f1.unwrap()));
+    assert!(md.contains("| Methods (Li et al. 2020 metrics) |"), "{md}");
 
     let mint = EvalConfig {
         ba_variant: BaVariant::Mint,
