@@ -70,6 +70,18 @@ pub struct Args {
     /// (default: the run's recipe.seam_frames; 0 = off, mint).
     #[arg(long, requires = "run")]
     pub seam_frames: Option<usize>,
+    /// Checkpoint mode, TSMT: sampling temperature (default: the run's tsmt.temperature).
+    #[arg(long, requires = "run")]
+    pub temperature: Option<f64>,
+    /// Checkpoint mode, TSMT: draw from the k most likely bins only (default: the run's tsmt.top_k).
+    #[arg(long, requires = "run")]
+    pub top_k: Option<usize>,
+    /// Checkpoint mode, TSMT: seed of the draws (S-music-D's extra rollouts use the next seeds).
+    #[arg(long, requires = "run", default_value_t = 0)]
+    pub sample_seed: u64,
+    /// Checkpoint mode, TSMT: rollouts per input for S-music-D (SPEC §11.10: 5; 1 = none).
+    #[arg(long, requires = "run")]
+    pub music_rollouts: Option<usize>,
     /// Checkpoint mode: write the report under R/eval/step-N-TAG/ instead of R/eval/step-N/
     /// (several sampling settings of one checkpoint side by side).
     #[arg(long, requires = "run")]
@@ -206,6 +218,10 @@ impl Args {
                 } else {
                     self.audio_pad
                 },
+                temperature: self.temperature,
+                top_k: self.top_k,
+                sample_seed: self.sample_seed,
+                music_rollouts: self.music_rollouts,
             },
             configs: self.configs(),
             ba_music_beats: self.ba_music_beats,

@@ -143,6 +143,47 @@ pub fn li_metrics(
     })
 }
 
+/// S-music-D (SPEC §11.10) of several rollouts of the same inputs (`rollouts[r]`: one generated set,
+/// seed ++ generated frames per `cfg`): the evaluated segments' kinetic features, normalised by the
+/// reference set's statistics, grouped by music; None with fewer than two per music.
+pub fn s_music_d_of(
+    rollouts: &[&[Sequence]],
+    reference: &[Sequence],
+    cfg: &EvalConfig,
+) -> Result<Option<f64>> {
+    let ref_k: Vec<Vec<f64>> = reference
+        .par_iter()
+        .filter(|s| s.joints.len() >= crate::kinetic::MIN_FRAMES)
+        .map(|s| Ok(features_of(&s.joints, cfg)?.kinetic))
+        .collect::<Result<_>>()?;
+    let norm = Normaliser::fit(&ref_k)?;
+    let mut groups: HashMap<String, Vec<Vec<f64>>> = HashMap::new();
+    for set in rollouts {
+        for s in set.iter() {
+            let len = s
+                .joints
+                .len()
+                .saturating_sub(cfg.seed_frames)
+                .min(cfg.max_frames);
+            let Some(key) = crate::protocol::music_key(s) else {
+                continue;
+            };
+            if len < crate::kinetic::MIN_FRAMES {
+                continue;
+            }
+            let seg = &s.joints[cfg.seed_frames..cfg.seed_frames + len];
+            groups
+                .entry(key)
+                .or_default()
+                .push(norm.apply_one(&features_of(seg, cfg)?.kinetic));
+        }
+    }
+    let mut keys: Vec<&String> = groups.keys().collect();
+    keys.sort();
+    let ordered: Vec<Vec<Vec<f64>>> = keys.iter().map(|k| groups[*k].clone()).collect();
+    Ok(crate::diversity::s_music_d(&ordered))
+}
+
 impl LiMetrics {
     /// Every number with its report key (for the finiteness check).
     pub fn named(&self) -> Vec<(&'static str, f64)> {

@@ -37,6 +37,12 @@ pub struct SamplingOverrides {
     pub backend: Option<qean_models::backend::Backend>,
     /// Keep generating past the end of the music by repeating its last frame.
     pub audio_pad: AudioPad,
+    /// TSMT: temperature, top-k (None: the run's), the seed of the draws of the main rollout, and
+    /// how many rollouts per input S-music-D takes (None: 5, with seeds sample_seed..+5).
+    pub temperature: Option<f64>,
+    pub top_k: Option<usize>,
+    pub sample_seed: u64,
+    pub music_rollouts: Option<usize>,
 }
 
 /// What checkpoint mode evaluates.
@@ -117,13 +123,19 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
     let ds = Dataset::open(&req.data)?;
     let names = protocol_sequences(&ds)?;
     let config = &ck.config;
-    let seed_frames = config.model.motion_len;
+    let seed_frames = config.seed_frames();
     let pairs = pairings(&names, req.protocol);
     let (requests, starts) = sample_requests(&ds, &pairs, config, req.seed_start)?;
     let opts = sample_options(req, config)?;
-    let dances = sample_dances(req, &ck, &requests, &opts)?;
-    let (generated, pairings_out) =
-        write_generated(&out_dir, &pairs, &dances, &starts, &opts, req.root)?;
+    let dances = sample_dances(req, &ck, &requests, &opts, req.sampling.sample_seed)?;
+    let (generated, pairings_out) = write_generated(
+        &out_dir,
+        &pairs,
+        &dances,
+        &starts,
+        (&opts, seed_frames),
+        req.root,
+    )?;
     let reference = reference_set(&ds, req.root)?;
 
     let keys = generated
@@ -149,10 +161,19 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
             ..c.clone()
         })
         .collect();
-    let reports = configs
+    let mut reports = configs
         .iter()
         .map(|cfg| evaluate(&generated, &reference, Some(&lookup), cfg))
         .collect::<qean_eval::Result<Vec<_>>>()?;
+    if config.is_tsmt() {
+        let more = more_rollouts(req, &ck, &requests, &opts, &generated)?;
+        let sets: Vec<&[Sequence]> = std::iter::once(generated.as_slice())
+            .chain(more.iter().map(Vec::as_slice))
+            .collect();
+        for (r, cfg) in reports.iter_mut().zip(&configs) {
+            r.li.s_music_d = qean_eval::li_metrics::s_music_d_of(&sets, &reference, cfg)?;
+        }
+    }
     let baselines = match configs.first() {
         Some(cfg) if req.baselines => Some(chance_baselines(&generated, &reference, &lookup, cfg)?),
         _ => None,
@@ -240,7 +261,7 @@ fn sample_requests(
     config: &qean_config::RunConfig,
     seed_start: SeedStart,
 ) -> Result<(Vec<SampleRequest>, Vec<usize>)> {
-    let (layout, seed_frames) = (config.layout(), config.model.motion_len);
+    let (layout, seed_frames) = (config.layout(), config.seed_frames());
     let mut motions = Vec::new();
     for (motion, _, _) in pairs {
         let path = ds.motion_path(motion);
@@ -295,27 +316,95 @@ fn sample_options(req: &RunEvalRequest, config: &qean_config::RunConfig) -> Resu
     Ok(opts)
 }
 
-/// Every request sampled in one batch with the checkpoint's model, with a progress bar.
+/// Every request sampled in one batch with the checkpoint's model, with a progress bar; TSMT draws
+/// with `draw_seed`.
 fn sample_dances(
     req: &RunEvalRequest,
     ck: &qean_train::Checkpoint,
     requests: &[SampleRequest],
     opts: &SampleOptions,
+    draw_seed: u64,
 ) -> Result<Vec<Vec<f32>>> {
     let backend = req.sampling.backend.unwrap_or(ck.config.train.backend);
-    let device = qean_models::backend::device(backend)?;
-    let model = ck.load_model(&device)?;
     let pb = qean_train::progress::bar(
         req.max_frames as u64,
         &format!("sampling {} sequences", requests.len()),
         "frames",
     );
-    let dances = qean_models::sampler::sample(&model, &device, requests, opts, |done, total| {
+    let mut progress = |done: usize, total: usize| {
         pb.set_length(total as u64);
         pb.set_position(done as u64);
-    })?;
+    };
+    let dances = if ck.config.is_tsmt() {
+        sample_tsmt(req, ck, requests, opts, draw_seed, backend, &mut progress)?
+    } else {
+        let device = qean_models::backend::device(backend)?;
+        let model = ck.load_model(&device)?;
+        qean_models::sampler::sample(&model, &device, requests, opts, progress)?
+    };
     pb.finish_and_clear();
     Ok(dances)
+}
+
+/// TSMT's rollouts of the requests (seed motions and 35-D music), as vectors in `opts.layout`.
+fn sample_tsmt(
+    req: &RunEvalRequest,
+    ck: &qean_train::Checkpoint,
+    requests: &[SampleRequest],
+    opts: &SampleOptions,
+    draw_seed: u64,
+    backend: qean_models::backend::Backend,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Vec<Vec<f32>>> {
+    let dim = qean_aistpp::windows::AUDIO_DIM;
+    let seeds = requests
+        .iter()
+        .map(|r| Motion::from_layout(&r.seed, opts.layout).map_err(Error::Invalid))
+        .collect::<Result<Vec<_>>>()?;
+    let music: Vec<(&[f32], usize)> = requests
+        .iter()
+        .map(|r| (r.audio.as_slice(), r.audio.len() / dim))
+        .collect();
+    let t = ck.config.tsmt();
+    let s = &req.sampling;
+    let rollouts = crate::tsmt::TsmtRollouts {
+        seeds: &seeds,
+        music: &music,
+        frames: req.max_frames,
+        sampling: crate::tsmt::sampling_with(&t, s.temperature, s.top_k, draw_seed),
+        backend,
+    };
+    let motions = crate::tsmt::sample_motions(ck, &rollouts, progress)?;
+    Ok(motions.iter().map(|m| m.to_layout(opts.layout)).collect())
+}
+
+/// S-music-D's further rollouts of a TSMT run (draw seeds after the main one), as joint sequences
+/// named like the main set.
+fn more_rollouts(
+    req: &RunEvalRequest,
+    ck: &qean_train::Checkpoint,
+    requests: &[SampleRequest],
+    opts: &SampleOptions,
+    main: &[Sequence],
+) -> Result<Vec<Vec<Sequence>>> {
+    let count = req.sampling.music_rollouts.unwrap_or(5);
+    let mut sets = Vec::new();
+    for k in 1..count as u64 {
+        let dances = sample_dances(req, ck, requests, opts, req.sampling.sample_seed + k)?;
+        let set = dances
+            .iter()
+            .zip(main)
+            .map(|(d, s)| {
+                let m = Motion::from_layout(d, opts.layout).map_err(Error::Invalid)?;
+                Ok(Sequence {
+                    joints: frames_of(m.joints(req.root)),
+                    ..s.clone()
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        sets.push(set);
+    }
+    Ok(sets)
 }
 
 /// The generated dances as joint positions, written to `out_dir/generated/NAME.joints.npy`, with
@@ -325,7 +414,7 @@ fn write_generated(
     pairs: &[(String, String, String)],
     dances: &[Vec<f32>],
     starts: &[usize],
-    opts: &SampleOptions,
+    (opts, seed_frames): (&SampleOptions, usize),
     root: qean_motion::FkRoot,
 ) -> Result<(Vec<Sequence>, Vec<Pairing>)> {
     let joints_dir = out_dir.join("generated");
@@ -333,7 +422,6 @@ fn write_generated(
     let d = opts.layout.dim();
     let mut generated = Vec::new();
     let mut pairings = Vec::new();
-    let seed_frames = opts.spec.motion_len;
     for (((motion, music, name), dance), &start) in pairs.iter().zip(dances).zip(starts) {
         let m = Motion::from_layout(dance, opts.layout)
             .map_err(|e| Error::Invalid(format!("generated {name}: {e}")))?;

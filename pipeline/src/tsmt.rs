@@ -22,23 +22,23 @@ use crate::generate::{GenerateOptions, Generated, Song};
 
 /// The sampling settings of a TSMT run with `opts`' overrides.
 pub fn sampling(t: &TsmtConfig, opts: &GenerateOptions) -> TsmtSampling {
-    TsmtSampling {
-        temperature: opts.temperature.unwrap_or(t.temperature),
-        top_k: opts.top_k.unwrap_or(t.top_k),
-        window: t.window,
-        slide_stride: t.slide_stride,
-        seed: opts.sample_seed,
-        cache: true,
-    }
+    sampling_with(t, opts.temperature, opts.top_k, opts.sample_seed)
 }
 
-/// A song as TSMT hears it.
-pub fn song_audio(song: &Song) -> TsmtAudio {
-    let (mfcc, beats) = tsmt_audio(&song.features.data, song.features.frames);
-    TsmtAudio {
-        mfcc,
-        beats,
-        frames: song.features.frames,
+/// The run's sampling settings with a temperature, top-k and draw seed.
+pub fn sampling_with(
+    t: &TsmtConfig,
+    temperature: Option<f64>,
+    top_k: Option<usize>,
+    seed: u64,
+) -> TsmtSampling {
+    TsmtSampling {
+        temperature: temperature.unwrap_or(t.temperature),
+        top_k: top_k.unwrap_or(t.top_k),
+        window: t.window,
+        slide_stride: t.slide_stride,
+        seed,
+        cache: true,
     }
 }
 
@@ -73,6 +73,72 @@ pub fn generated_len(frames: usize, seed_frames: usize, music_frames: usize) -> 
     frames.min(music_frames.saturating_sub(seed_frames))
 }
 
+/// What a batch of TSMT rollouts needs besides the checkpoint.
+pub struct TsmtRollouts<'a> {
+    /// Seed motion of each row (all the run's `seed_frames` long).
+    pub seeds: &'a [Motion],
+    /// The music of each row as 35-D features (frames × 35) and its frame count.
+    pub music: &'a [(&'a [f32], usize)],
+    /// Generated frames per row (each cut where its music ends).
+    pub frames: usize,
+    pub sampling: TsmtSampling,
+    pub backend: qean_models::backend::Backend,
+}
+
+/// Samples every row in one batch and returns each row's dance (seed + generated frames) as SMPL
+/// rotations.
+pub fn sample_motions(
+    ck: &Checkpoint,
+    r: &TsmtRollouts,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Vec<Motion>> {
+    let t = ck.config.tsmt();
+    let bins = run_bins(ck)?;
+    let device = qean_models::backend::device(r.backend).map_err(|e| Error::msg(e.to_string()))?;
+    let model = qean_train::family::load_checkpoint_model(&TsmtFamily::default(), ck, &device)?;
+    let seeds: Vec<Vec<u16>> = r
+        .seeds
+        .iter()
+        .map(|m| bins.encode(&pose_coords(&m.joints(FkRoot::Smpl), t.root_mode)))
+        .collect();
+    let lengths: Vec<usize> = r
+        .music
+        .iter()
+        .zip(r.seeds)
+        .map(|((_, frames), seed)| generated_len(r.frames, seed.frames, *frames))
+        .collect();
+    let audio: Vec<TsmtAudio> = r
+        .music
+        .iter()
+        .map(|(data, frames)| {
+            let (mfcc, beats) = tsmt_audio(data, *frames);
+            TsmtAudio {
+                mfcc,
+                beats,
+                frames: *frames,
+            }
+        })
+        .collect();
+    let longest = lengths.iter().copied().max().unwrap_or(0);
+    let rows = sample_tokens(
+        &model,
+        &device,
+        &seeds,
+        &audio,
+        longest,
+        &r.sampling,
+        progress,
+        None,
+    );
+    let n = t.coords();
+    Ok(rows
+        .iter()
+        .zip(r.seeds)
+        .zip(&lengths)
+        .map(|((tokens, seed), &l)| decode_dance(&t, &bins, seed, &tokens[..(seed.frames + l) * n]))
+        .collect())
+}
+
 /// Dances for `songs` (one batch) from `seed`, written to `out`.
 pub fn generate(
     ck: &Checkpoint,
@@ -82,17 +148,8 @@ pub fn generate(
     out: &Path,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Vec<Generated>> {
-    let t = ck.config.tsmt();
-    let bins = run_bins(ck)?;
-    let device =
-        qean_models::backend::device(opts.backend).map_err(|e| Error::msg(e.to_string()))?;
-    let model = qean_train::family::load_checkpoint_model(&TsmtFamily::default(), ck, &device)?;
-    let seed_tokens = bins.encode(&pose_coords(&seed.joints(FkRoot::Smpl), t.root_mode));
-    let lengths: Vec<usize> = songs
-        .iter()
-        .map(|s| generated_len(opts.frames, seed.frames, s.features.frames))
-        .collect();
-    for (s, &l) in songs.iter().zip(&lengths) {
+    for s in songs {
+        let l = generated_len(opts.frames, seed.frames, s.features.frames);
         if l < opts.frames {
             tracing::warn!(
                 "{}: the music ends after {} frames: generating {l} frames instead of {}",
@@ -102,23 +159,24 @@ pub fn generate(
             );
         }
     }
-    let longest = lengths.iter().copied().max().unwrap_or(0);
-    let audio: Vec<TsmtAudio> = songs.iter().map(song_audio).collect();
-    let seeds = vec![seed_tokens; songs.len()];
-    let rows = sample_tokens(
-        &model,
-        &device,
-        &seeds,
-        &audio,
-        longest,
-        &sampling(&t, opts),
+    let seeds = vec![seed.clone(); songs.len()];
+    let music: Vec<(&[f32], usize)> = songs
+        .iter()
+        .map(|s| (s.features.data.as_slice(), s.features.frames))
+        .collect();
+    let motions = sample_motions(
+        ck,
+        &TsmtRollouts {
+            seeds: &seeds,
+            music: &music,
+            frames: opts.frames,
+            sampling: sampling(&ck.config.tsmt(), opts),
+            backend: opts.backend,
+        },
         progress,
-        None,
-    );
-    let n = t.coords();
+    )?;
     let mut written = Vec::new();
-    for ((song, tokens), &l) in songs.iter().zip(&rows).zip(&lengths) {
-        let motion = decode_dance(&t, &bins, seed, &tokens[..(seed.frames + l) * n]);
+    for (song, motion) in songs.iter().zip(&motions) {
         let paths = export_dance(
             out,
             &song.name,
@@ -133,7 +191,7 @@ pub fn generate(
         )?;
         written.push(Generated {
             name: song.name.clone(),
-            generated: l,
+            generated: motion.frames - seed.frames,
             paths,
             joints: motion.joints(FkRoot::Smpl),
         });
