@@ -304,8 +304,7 @@ pub fn export(a: ExportArgs) -> anyhow::Result<i32> {
 /// parameter value (recomputed from the weights and checked against the one recorded).
 pub fn inspect_checkpoint(dir: &Path) -> anyhow::Result<()> {
     let ck = Checkpoint::read(dir)?;
-    let model = ck.load_model(&burn::tensor::Device::flex())?;
-    let params = qean_models::params::named_parameters(&model);
+    let params = ck.named_parameters(&burn::tensor::Device::flex())?;
     let hash = qean_models::params::params_hash(&params);
     if hash != ck.state.params_hash {
         bail!(

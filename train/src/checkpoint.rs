@@ -109,9 +109,43 @@ impl Checkpoint {
         })
     }
 
-    /// The model with this checkpoint's weights, on `device`.
+    /// The FACT or QEAN model with this checkpoint's weights, on `device` (a TSMT checkpoint is an
+    /// error: load it through `qean_train::tsmt::TsmtFamily`).
     pub fn load_model(&self, device: &Device) -> Result<DanceModel> {
+        if self.config.is_tsmt() {
+            return Err(Error::at(
+                &self.dir,
+                "a TSMT checkpoint, not FACT or QEAN: this command does not take TSMT runs",
+            ));
+        }
         crate::family::load_checkpoint_model(&crate::fact_qean::FactQean, self, device)
+    }
+
+    /// Every parameter of the checkpoint's model, whatever its family (inspection, export).
+    pub fn named_parameters(
+        &self,
+        device: &Device,
+    ) -> Result<Vec<qean_models::params::NamedParam>> {
+        if self.config.is_tsmt() {
+            let model = crate::family::load_checkpoint_model(
+                &crate::tsmt::TsmtFamily::default(),
+                self,
+                device,
+            )?;
+            return Ok(qean_models::params::named_parameters(&model));
+        }
+        Ok(qean_models::params::named_parameters(
+            &self.load_model(device)?,
+        ))
+    }
+
+    /// The architecture tables as TOML (`[model]`, or `[tsmt]` for TSMT runs).
+    pub fn architecture_toml(&self) -> String {
+        match (&self.config.tsmt, self.config.is_tsmt()) {
+            (Some(t), true) => toml::to_string(t),
+            _ => toml::to_string(&self.config.model),
+        }
+        .expect("configs serialise")
     }
 
     /// Refuses to continue these weights as another model: the error names the checkpoint and the
@@ -120,6 +154,51 @@ impl Checkpoint {
         if self.config.model == *model {
             return Ok(());
         }
+        self.check_different(model)
+    }
+
+    /// [`Checkpoint::check_model`] for a whole run config: TSMT runs compare their `[tsmt]` sizes
+    /// (bins and sampling settings may differ).
+    pub fn check_config(&self, config: &qean_config::RunConfig) -> Result<()> {
+        self.check_model(&config.model)?;
+        let shape = |c: &qean_config::RunConfig| {
+            c.tsmt.clone().map(|t| qean_config::tsmt::TsmtConfig {
+                bins_lo: Vec::new(),
+                bins_hi: Vec::new(),
+                temperature: 1.0,
+                top_k: 0,
+                slide_stride: 1,
+                seed_frames: 1,
+                lr_start_factor: 1.0,
+                ik: Default::default(),
+                dropout: 0.0,
+                windows: Default::default(),
+                ..t
+            })
+        };
+        let (a, b) = (shape(&self.config), shape(config));
+        if a == b {
+            return Ok(());
+        }
+        let text = |t: &Option<qean_config::tsmt::TsmtConfig>| {
+            t.as_ref()
+                .map(|t| toml::to_string(t).unwrap_or_default())
+                .unwrap_or_default()
+        };
+        let (ta, tb) = (text(&a), text(&b));
+        let line = ta
+            .lines()
+            .zip(tb.lines())
+            .find(|(x, y)| x != y)
+            .map(|(x, y)| format!("{x} (checkpoint) vs {y}"))
+            .unwrap_or_else(|| "[tsmt] differs".into());
+        Err(Error::at(
+            &self.dir,
+            format!("the checkpoint is another TSMT model: {line}"),
+        ))
+    }
+
+    fn check_different(&self, model: &qean_config::ModelConfig) -> Result<()> {
         let a = toml::to_string(&self.config.model).unwrap_or_default();
         let b = toml::to_string(model).unwrap_or_default();
         let diff = a

@@ -8,7 +8,7 @@ use burn::module::Module;
 use burn::tensor::Device;
 use qean_config::ModelConfig;
 use qean_io::error::{Error, Result};
-use qean_models::params::{named_parameters, parameter_shapes, params_hash, write_safetensors};
+use qean_models::params::{parameter_shapes, params_hash, write_safetensors};
 use qean_models::DanceModel;
 
 use crate::checkpoint::Checkpoint;
@@ -24,17 +24,13 @@ pub struct ExportSummary {
 /// Writes every parameter of the checkpoint's model to `out` (f32, Burn's layouts: see
 /// docs/weights.md). The header's metadata holds the model config, the step and the hash.
 pub fn export_safetensors(ck: &Checkpoint, out: &Path) -> Result<ExportSummary> {
-    let model = ck.load_model(&Device::flex())?;
-    let params = named_parameters(&model);
+    let params = ck.named_parameters(&Device::flex())?;
     let hash = params_hash(&params);
     let metadata = HashMap::from([
         ("format".to_string(), "qean-weights-1".to_string()),
         ("step".to_string(), ck.state.step.to_string()),
         ("params_hash".to_string(), hash.clone()),
-        (
-            "model_config".to_string(),
-            toml::to_string(&ck.config.model).expect("model config serialises"),
-        ),
+        ("model_config".to_string(), ck.architecture_toml()),
         (
             "layout".to_string(),
             "burn: Linear weight is [in, out] (transpose for torch.nn.Linear)".to_string(),

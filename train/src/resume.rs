@@ -135,7 +135,7 @@ pub fn resume_point(
         Start::Auto if existing.is_empty() => return Ok(None),
         Start::Auto => checkpoint::resolve(run_dir)?,
     };
-    ck.check_model(&config.model)?;
+    ck.check_config(config)?;
     if ck.state.step > config.train.steps {
         return Err(Error::at(
             &ck.dir,
