@@ -54,6 +54,8 @@ const ASSETS: &[Asset] = &[
     asset!("configs/qean/baseline.toml"),
     asset!("configs/tiny/baseline.toml"),
     asset!("configs/tiny/full.toml"),
+    asset!("configs/tsmt/paper.toml"),
+    asset!("configs/tsmt/tiny.toml"),
 ];
 
 /// The held-out song the demo dances to (not in the dataset).

@@ -181,3 +181,71 @@ fn tsmt_presets_have_the_spec_parameter_counts() {
         println!("{}", report.summary);
     }
 }
+
+/// SPEC §11.13.12: tiny TSMT overfits one batch (masked CE below 0.05 within 2000 steps): two
+/// 64-frame windows of smooth binned motion with their MFCC rows and beats.
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug: run with --release")]
+fn tiny_tsmt_overfits_one_batch() {
+    use burn::tensor::Int;
+    use qean_models::tsmt::loss::masked_cross_entropy;
+    use qean_models::tsmt::{Tsmt, TsmtInput};
+    let c = qean_config::RunConfig::load(&preset("tsmt/tiny.toml"), &[])
+        .unwrap()
+        .tsmt();
+    let (b, w, n, bins) = (2, c.window, c.coords(), c.n_bins as i64);
+    let device = Device::flex().autodiff();
+    device.seed(7);
+    let mut model = Tsmt::new(&c, &device);
+    let token = |r: usize, t: usize, d: usize| -> i64 {
+        let x = (0.05 * t as f64 + 0.9 * d as f64 + 1.7 * r as f64).sin();
+        ((x + 1.0) / 2.0 * (bins - 1) as f64).round() as i64
+    };
+    let tokens: Vec<i64> = (0..b)
+        .flat_map(|r| (0..w).flat_map(move |t| (0..n).map(move |d| token(r, t, d))))
+        .collect();
+    let targets: Vec<i64> = (0..b)
+        .flat_map(|r| (0..w).flat_map(move |t| (0..n).map(move |d| token(r, t + 1, d))))
+        .collect();
+    let mfcc: Vec<f32> = (0..b * w * 26)
+        .map(|i| ((i as f32) * 0.37).sin() * 30.0)
+        .collect();
+    let beat: Vec<i64> = (0..b * w).map(|i| (i % 30 == 0) as i64).collect();
+    let input = |device: &Device| TsmtInput {
+        tokens: Tensor::<3, Int>::from_data(TensorData::new(tokens.clone(), [b, w, n]), device),
+        mfcc: Tensor::from_data(TensorData::new(mfcc.clone(), [b, w, 26]), device),
+        beat: Tensor::<2, Int>::from_data(TensorData::new(beat.clone(), [b, w]), device),
+        lengths: vec![w; b],
+    };
+    let target = |device: &Device| {
+        Tensor::<3, Int>::from_data(TensorData::new(targets.clone(), [b, w, n]), device)
+    };
+    // CE without dropout (training runs with the preset's 0.1).
+    let plain = Device::flex();
+    let eval = |model: &Tsmt| -> f64 {
+        masked_cross_entropy(
+            model.valid().forward(input(&plain)),
+            target(&plain),
+            &vec![w; b],
+        )
+        .into_scalar::<f32>() as f64
+    };
+    let mut optim = AdamConfig::new().with_epsilon(1e-8).init();
+    let start = Instant::now();
+    let (mut steps, mut last) = (0, f64::INFINITY);
+    while steps < 2000 && last >= 0.05 {
+        let loss =
+            masked_cross_entropy(model.forward(input(&device)), target(&device), &vec![w; b]);
+        let grads = GradientsParams::from_grads(loss.backward(), &model);
+        model = optim.step(3e-3, model, grads);
+        steps += 1;
+        if steps % 50 == 0 {
+            last = eval(&model);
+        }
+    }
+    println!(
+        "tiny TSMT: CE {last:.4} after {steps} steps, {:.1} s",
+        start.elapsed().as_secs_f64()
+    );
+    assert!(last < 0.05, "CE {last} after {steps} steps");
+}

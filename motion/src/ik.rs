@@ -247,7 +247,7 @@ pub fn motion_from_joints(joints: &[[f64; 3]], mode: IkMode, root: FkRoot) -> Mo
     };
     let poses = rotations
         .iter()
-        .flat_map(|r| matrix_to_axis_angle(r))
+        .flat_map(matrix_to_axis_angle)
         .collect();
     let trans = joints
         .chunks_exact(NUM_JOINTS)

@@ -28,16 +28,20 @@ pub enum MeasureId {
     TrainMint,
     SampleTiny,
     SampleMint,
+    TrainTsmt,
+    SampleTsmt,
 }
 
 impl MeasureId {
-    pub const ALL: [MeasureId; 6] = [
+    pub const ALL: [MeasureId; 8] = [
         MeasureId::Features,
         MeasureId::Metrics,
         MeasureId::TrainTiny,
         MeasureId::TrainMint,
         MeasureId::SampleTiny,
         MeasureId::SampleMint,
+        MeasureId::TrainTsmt,
+        MeasureId::SampleTsmt,
     ];
 
     pub fn name(self) -> &'static str {
@@ -48,6 +52,8 @@ impl MeasureId {
             MeasureId::TrainMint => "train-mint",
             MeasureId::SampleTiny => "sample-tiny",
             MeasureId::SampleMint => "sample-mint",
+            MeasureId::TrainTsmt => "train-tsmt",
+            MeasureId::SampleTsmt => "sample-tsmt",
         }
     }
 
@@ -60,10 +66,11 @@ impl MeasureId {
         !matches!(self, MeasureId::Features | MeasureId::Metrics)
     }
 
-    /// Model size of a model measure ("tiny" or "mint").
+    /// Model size of a model measure ("tiny", "mint", or "paper" for TSMT).
     pub fn size(self) -> &'static str {
         match self {
             MeasureId::TrainMint | MeasureId::SampleMint => "mint",
+            MeasureId::TrainTsmt | MeasureId::SampleTsmt => "paper",
             _ => "tiny",
         }
     }
@@ -93,7 +100,23 @@ pub struct Sizes {
     pub sample_frames_mint: usize,
     /// The horizon the frames-per-second figure is converted to (mint: 1200).
     pub horizon: usize,
+    /// TSMT (paper size): timed training steps at batch 32, and frames sampled per timing.
+    #[serde(default = "default_tsmt_steps")]
+    pub train_steps_tsmt: usize,
+    #[serde(default = "default_tsmt_frames")]
+    pub sample_frames_tsmt: usize,
 }
+
+fn default_tsmt_steps() -> usize {
+    3
+}
+
+fn default_tsmt_frames() -> usize {
+    30
+}
+
+/// TSMT's training batch (the reference script's).
+pub const TSMT_BATCH: usize = 32;
 
 impl Sizes {
     pub fn new(quick: bool) -> Sizes {
@@ -112,6 +135,8 @@ impl Sizes {
             sample_frames_tiny: if quick { 5 } else { 30 },
             sample_frames_mint: 1,
             horizon: 1200,
+            train_steps_tsmt: if quick { 1 } else { default_tsmt_steps() },
+            sample_frames_tsmt: if quick { 5 } else { default_tsmt_frames() },
         }
     }
 }
@@ -128,9 +153,10 @@ pub struct Inputs {
     /// The synthetic metric set and its description for the peer.
     pub set: SyntheticSet,
     pub set_json: PathBuf,
-    /// Run configs of the tiny and the mint-size FACT.
+    /// Run configs of the tiny and the mint-size FACT, and of TSMT at the paper's size.
     pub tiny_config: PathBuf,
     pub mint_config: PathBuf,
+    pub tsmt_config: PathBuf,
 }
 
 impl Inputs {
@@ -152,6 +178,7 @@ impl Inputs {
             set_json: dir.join("metric-set.json"),
             tiny_config: dir.join("configs/tiny/fact.toml"),
             mint_config: dir.join("configs/fact.toml"),
+            tsmt_config: dir.join("configs/tsmt/paper.toml"),
         }
     }
 
@@ -184,6 +211,7 @@ impl Inputs {
     pub fn config(&self, id: MeasureId) -> &Path {
         match id.size() {
             "mint" => &self.mint_config,
+            "paper" => &self.tsmt_config,
             _ => &self.tiny_config,
         }
     }
@@ -206,13 +234,13 @@ pub fn reset_peak_rss() {
     let _ = std::fs::write("/proc/self/clear_refs", "5");
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+pub(super) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
 }
 
 /// Deterministic values in [-1, 1) for benchmark inputs (the timing does not depend on them).
-fn filler(n: usize, seed: u64) -> Vec<f32> {
+pub(super) fn filler(n: usize, seed: u64) -> Vec<f32> {
     let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
     (0..n)
         .map(|_| {
@@ -237,6 +265,8 @@ pub fn run_measure(
         MeasureId::Metrics => metrics(inputs, sizes)?,
         MeasureId::TrainTiny | MeasureId::TrainMint => train(id, backend, inputs, sizes)?,
         MeasureId::SampleTiny | MeasureId::SampleMint => sampling(id, backend, inputs, sizes)?,
+        MeasureId::TrainTsmt => super::tsmt::train(backend, inputs, sizes)?,
+        MeasureId::SampleTsmt => super::tsmt::sampling(backend, inputs, sizes)?,
     };
     entry.peak_rss_mb = peak_rss_mb();
     Ok(entry)
@@ -296,11 +326,11 @@ fn metrics(inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
     ))
 }
 
-fn load_config(path: &Path) -> anyhow::Result<RunConfig> {
+pub(super) fn load_config(path: &Path) -> anyhow::Result<RunConfig> {
     Ok(RunConfig::load(path, &[])?)
 }
 
-fn device(backend: &str) -> anyhow::Result<Device> {
+pub(super) fn device(backend: &str) -> anyhow::Result<Device> {
     Ok(qean_models::backend::device_named(backend)?)
 }
 

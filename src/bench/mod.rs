@@ -17,6 +17,7 @@
 mod measures;
 mod peers;
 mod report;
+mod tsmt;
 
 use std::path::PathBuf;
 

@@ -92,6 +92,31 @@ impl Peers {
                 ];
                 (&self.torch_python, torch(id, "sample", &counts))
             }
+            MeasureId::TrainTsmt | MeasureId::SampleTsmt => {
+                let (what, counts) = if id == MeasureId::TrainTsmt {
+                    (
+                        "train",
+                        [
+                            ("--batch", super::measures::TSMT_BATCH),
+                            ("--steps", sizes.train_steps_tsmt.max(1)),
+                        ],
+                    )
+                } else {
+                    (
+                        "sample",
+                        [
+                            ("--sequences", sizes.sequences),
+                            ("--frames", sizes.sample_frames_tsmt.max(1)),
+                        ],
+                    )
+                };
+                let mut args = vec![script("tsmt_torch.py"), "--what".into(), what.into()];
+                for (flag, n) in counts {
+                    args.push(flag.to_string());
+                    args.push(n.to_string());
+                }
+                (&self.torch_python, args)
+            }
         };
         PeerCommand {
             program: program.clone(),
