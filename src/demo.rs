@@ -287,7 +287,7 @@ fn train_all(
         if resume {
             // The trainer's own check, made here too so that a run of an earlier demo (e.g. before
             // a preset changed) stops the demo before any training starts.
-            qean_train::checkpoint::resolve(&run_dir)?.check_model(&wanted.model)?;
+            qean_train::checkpoint::resolve(&run_dir)?.check_config(&wanted)?;
         }
         plans.push((name, preset, config, run_dir, resume));
     }
@@ -397,7 +397,11 @@ fn dance(
             return Ok((expected, joints));
         }
     }
-    let song = generate::load_song(&out.join(HELD_OUT), Some(stem), ck.config.model.audio_len)?;
+    let song = generate::load_song(
+        &out.join(HELD_OUT),
+        Some(stem),
+        ck.config.min_music_frames(),
+    )?;
     // Seed: the opening of the first test sequence (a pose the models know, unlike a T-pose).
     let ds = qean_aistpp::dataset::Dataset::open(data)?;
     let first = ds
@@ -442,7 +446,7 @@ fn dance(
     let g = &written[0];
     say(format!(
         "dance {name}: {} seed + {} generated frames → {}",
-        ck.config.model.motion_len,
+        ck.config.seed_frames(),
         g.generated,
         dir.display()
     ));
@@ -575,6 +579,7 @@ pub fn table(models: &[ModelResult], reference: &EnergyReference) -> String {
             e.verdict_word()
         );
     }
+    t += &li_table(models);
     t += "\n";
     for m in models {
         let (Some(r), Some(b)) = (m.report.reports.first(), m.report.baselines.as_ref()) else {
@@ -597,6 +602,42 @@ pub fn table(models: &[ModelResult], reference: &EnergyReference) -> String {
                 t += &format!("; BeatAlign {ours:.4} is {ba} random pairing's {chance:.4}\n");
             }
             _ => t += "; BeatAlign: no music beats\n",
+        }
+    }
+    t
+}
+
+/// Li et al.'s metrics (SPEC §11.9–11.11) of every model, with the ground truth's.
+fn li_table(models: &[ModelResult]) -> String {
+    let mut t = String::from(
+        "\nLi et al.'s metrics (motion beats vs the ground truth's, diversity within and across dances, joint \
+         limits and speeds):\n\n\
+         | | beat F1 ↑ | A-seq-D → | I-seq-D → | S-music-D ↑ | Authenticity ↑ | Coherence ↑ |\n\
+         |---|---|---|---|---|---|---|\n",
+    );
+    if let Some(first) = models.first().and_then(|m| m.report.reports.first()) {
+        let l = &first.li;
+        t += &format!(
+            "| ground truth | - | {} | {} | - | {} | {} |\n",
+            num(Some(l.gt_a_seq_d)),
+            num(l.gt_i_seq_d),
+            num(Some(l.gt_authenticity)),
+            num(Some(l.gt_coherence))
+        );
+    }
+    for m in models {
+        if let Some(r) = m.report.reports.first() {
+            let l = &r.li;
+            t += &format!(
+                "| {} | {} | {} | {} | {} | {} | {} |\n",
+                m.label,
+                num(l.beat_f1),
+                num(Some(l.a_seq_d)),
+                num(l.i_seq_d),
+                num(l.s_music_d),
+                num(Some(l.authenticity)),
+                num(Some(l.coherence))
+            );
         }
     }
     t
@@ -650,7 +691,7 @@ fn summary_text(
     let mut summary = format!(
         "# qean demo\n\nDataset: {} ({} sequences of ~{} s). Each model trained {} steps (batch {}, windows of {} \
          motion / {} music frames) on CPU; scored on the test + val split (seed = the first {} ground-truth \
-         frames, then up to {} generated frames), Bailando's metrics.\n\n{table}\n## Artefacts\n\n",
+         frames, TSMT's 120, then up to {} generated frames), Bailando's metrics and Li et al.'s.\n\n{table}\n## Artefacts\n\n",
         data.display(),
         budget.sequences,
         budget.seconds,
@@ -697,6 +738,7 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
             "tiny QEAN (full: SPE + QRA)",
             "configs/tiny/full.toml",
         ),
+        ("tsmt", "tiny TSMT (Li et al.)", "configs/tsmt/tiny.toml"),
     ];
     let trained: Vec<_> = match train_all(opts, &data, &presets)? {
         Some(t) => presets
@@ -720,7 +762,7 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
     for (name, label, (ck, seconds, loss)) in trained {
         let run_dir = out.join("runs").join(name);
         let (dance, joints) = dance(out, &data, name, &ck, opts.budget.dance_frames)?;
-        let seed = ck.config.model.motion_len.min(joints.len());
+        let seed = ck.config.seed_frames().min(joints.len());
         let (_, dance_energy) = motion_energy([&joints[seed..]], &reference);
         say(format!(
             "dance {name}: {}",

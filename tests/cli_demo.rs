@@ -33,6 +33,7 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
         "| ground truth",
         "| tiny FACT |",
         "| tiny QEAN (full: SPE + QRA) |",
+        "| tiny TSMT (Li et al.) |",
         "| chance: frozen seed pose |",
         "| chance: tiny FACT with random music (all pairings) |",
     ] {
@@ -41,7 +42,11 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
     // Each model's held-out dance is judged, and the model is compared with both chance
     // baselines (the full demo's numbers are in docs/freezing.md: the quick one trains too
     // briefly to promise a dance, and says so).
-    for label in ["tiny FACT", "tiny QEAN (full: SPE + QRA)"] {
+    for label in [
+        "tiny FACT",
+        "tiny QEAN (full: SPE + QRA)",
+        "tiny TSMT (Li et al.)",
+    ] {
         let line = table
             .lines()
             .find(|l| l.starts_with(&format!("- {label}: the held-out dance ")))
@@ -64,7 +69,8 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
         );
     }
     assert!(table.contains("smoke test"), "{table}");
-    for model in ["fact", "qean"] {
+    assert!(table.contains("| beat F1 ↑ | A-seq-D →"), "{table}");
+    for model in ["fact", "qean", "tsmt"] {
         let dir = out.join("dances").join(model);
         for f in [
             "Vibe_Ace.pkl",
@@ -76,8 +82,9 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
             assert!(dir.join(f).is_file(), "{model}/{f} missing:\n{table}");
         }
         let joints = qean_io::npy::read(&dir.join("Vibe_Ace.joints.npy")).unwrap();
-        // The quick demo's seed is 30 frames.
-        assert_eq!(joints.shape, vec![1230, 24, 3]);
+        // The quick demo's seed is 30 frames (TSMT's own: 120).
+        let seed = if model == "tsmt" { 120 } else { 30 };
+        assert_eq!(joints.shape, vec![seed + 1200, 24, 3]);
         let (w, h, bytes) = png_size(&dir.join("Vibe_Ace.png"));
         assert!(
             w >= 400 && h >= 200 && bytes > 2_000,

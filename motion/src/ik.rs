@@ -245,10 +245,7 @@ pub fn motion_from_joints(joints: &[[f64; 3]], mode: IkMode, root: FkRoot) -> Mo
         FkRoot::Smpl => SMPL_MALE_PELVIS,
         FkRoot::Edge => [0.0; 3],
     };
-    let poses = rotations
-        .iter()
-        .flat_map(matrix_to_axis_angle)
-        .collect();
+    let poses = rotations.iter().flat_map(matrix_to_axis_angle).collect();
     let trans = joints
         .chunks_exact(NUM_JOINTS)
         .flat_map(|p| sub(p[0], shift))

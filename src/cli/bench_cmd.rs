@@ -8,7 +8,9 @@ use qean::bench::{self, BenchOptions, MeasureId, Peers};
 /// Measure the speed and peak memory of every stage: 35-D features of a 60 s track, the five
 /// metrics on 40 generated vs 1363 reference sequences, one FACT training step (batch 16, tiny and
 /// mint size) and batched autoregressive sampling of 40 sequences (frames per second, tiny and mint
-/// size). Release builds only give meaningful numbers (`cargo run --release -- bench`).
+/// size); and Li et al.'s TSMT at the paper's size: one training step (batch 32) and sampling of 40
+/// and 1 sequences with the KV cache and with full recomputation (60 frames/s is real time).
+/// Release builds only give meaningful numbers (`cargo run --release -- bench`).
 ///
 /// With --peers, each measure is repeated by its peer in bench/peer/ on the same inputs (librosa
 /// 0.8.1, Bailando's metric protocol in numpy, the same FACT in PyTorch) and the table shows the ratio.
@@ -18,6 +20,7 @@ use qean::bench::{self, BenchOptions, MeasureId, Peers};
 /// Examples:
 ///   qean bench --quick
 ///   qean bench --only train-tiny,sample-tiny --backends flex,ndarray
+///   qean bench --only train-tsmt,sample-tsmt
 ///   qean bench --peers --torch-python torch/bin/python --librosa-python lr/bin/python --json b.json
 #[derive(Args, Debug)]
 #[command(verbatim_doc_comment)]
@@ -27,7 +30,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub quick: bool,
     /// Measures to run (comma-separated): features, metrics, train-tiny, train-mint, sample-tiny,
-    /// sample-mint. Default: all (with --quick: the four without mint).
+    /// sample-mint, train-tsmt, sample-tsmt. Default: all (with --quick: the four tiny ones).
     #[arg(long, value_delimiter = ',')]
     pub only: Vec<String>,
     /// Backends for the model measures, each measured (flex, ndarray, wgpu).

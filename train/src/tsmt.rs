@@ -8,7 +8,9 @@
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::feature_cache;
-use qean_aistpp::windows::{Batch, SequenceSet, WindowSpec};
+use std::sync::Arc;
+
+use qean_aistpp::windows::{Batch, Sequence, SequenceSet, WindowSpec};
 use qean_audio::delta::{tsmt_audio, TSMT_MFCC_DIM};
 use qean_config::run::RunConfig;
 use qean_config::tsmt::{RootMode, TsmtConfig, WindowMode};
@@ -60,6 +62,35 @@ pub fn fit_bins(ds: &Dataset, split: Split, t: &TsmtConfig) -> Result<Bins> {
         t.bins_mode,
     )
     .map_err(Error::msg)
+}
+
+/// `tsmt.windows = "segments"` (the reference's training unit): every sequence cut into blocks of
+/// W + 1 frames starting every W/2 frames (the last block that fits; the rest dropped), each block a
+/// sequence of its own, so every epoch visits each block once at its only window start.
+pub fn segmented(set: SequenceSet) -> SequenceSet {
+    let span = set.spec.span();
+    let hop = (set.spec.motion_len / 2).max(1);
+    let (d, ad) = (set.dim, set.audio_dim);
+    let mut sequences = Vec::new();
+    for seq in &set.sequences {
+        let mut s = 0;
+        while s + span <= seq.frames() {
+            sequences.push(Sequence {
+                name: format!("{}@{s}", seq.name),
+                motion: seq.motion[s * d..(s + span) * d].to_vec(),
+                motion_frames: span,
+                audio: Arc::new(seq.audio[s * ad..(s + span) * ad].to_vec()),
+                audio_frames: span,
+            });
+            s += hop;
+        }
+    }
+    tracing::info!(
+        "tsmt.windows = segments: {} sequences cut into {} blocks of {span} frames every {hop}",
+        set.sequences.len(),
+        sequences.len()
+    );
+    SequenceSet { sequences, ..set }
 }
 
 /// The `[tsmt]` table of a TSMT run.
@@ -137,11 +168,6 @@ impl Family for TsmtFamily {
             .tsmt
             .as_mut()
             .ok_or_else(|| Error::msg("model.arch = \"tsmt\" needs a [tsmt] table"))?;
-        if t.windows == WindowMode::Segments {
-            return Err(Error::msg(
-                "tsmt.windows = \"segments\" is not implemented yet: use \"random\"",
-            ));
-        }
         if let Some(ck) = resume {
             let saved = ck.config.tsmt.as_ref().and_then(Bins::from_config);
             let saved = saved
@@ -181,7 +207,8 @@ impl Family for TsmtFamily {
         let set = SequenceSet::load(dataset, split, Layout::L219, spec, |id| {
             feature_cache::load(dataset, id)
         })?;
-        set.remap(
+        let segments = t.windows == WindowMode::Segments && split == config.data.train_split;
+        let set = set.remap(
             t.coords(),
             AUDIO_COLS,
             |seq| {
@@ -196,7 +223,8 @@ impl Family for TsmtFamily {
                     .flat_map(|(r, b)| r.iter().copied().chain([f32::from(b)]))
                     .collect()
             },
-        )
+        )?;
+        Ok(if segments { segmented(set) } else { set })
     }
 
     fn inputs(
@@ -234,5 +262,43 @@ impl Family for TsmtFamily {
         Some(serde_json::json!({
             "tsmt_bins": { "n_bins": b.n_bins, "lo": b.lo, "hi": b.hi }
         }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn segments_are_half_overlapping_blocks_of_the_window_span() {
+        let spec = WindowSpec {
+            motion_len: 10,
+            target_len: 10,
+            target_shift: 1,
+            audio_len: 11,
+        };
+        let frames = 40;
+        let set = SequenceSet {
+            layout: Layout::L219,
+            dim: 2,
+            audio_dim: 1,
+            spec,
+            sequences: vec![Sequence {
+                name: "s".into(),
+                motion: (0..frames * 2).map(|x| (x / 2) as f32).collect(),
+                motion_frames: frames,
+                audio: Arc::new((0..frames + 5).map(|x| x as f32).collect()),
+                audio_frames: frames + 5,
+            }],
+            skipped: vec![],
+        };
+        let seg = segmented(set);
+        // Starts 0, 5, ..., 25 (25 + 11 ≤ 40; 30 + 11 > 40).
+        let starts: Vec<f32> = seg.sequences.iter().map(|s| s.motion[0]).collect();
+        assert_eq!(starts, vec![0.0, 5.0, 10.0, 15.0, 20.0, 25.0]);
+        for s in &seg.sequences {
+            assert_eq!((s.frames(), spec.starts(s.frames())), (11, 1));
+            assert_eq!(s.audio[0], s.motion[0]);
+        }
     }
 }
