@@ -296,12 +296,27 @@ mod tests {
             }
             if mode == IkMode::Hinge {
                 assert!(fallbacks * 10 < m.frames * 4, "{fallbacks}");
+                // Every hinge is a pure rotation about its axis, except on fallback limbs, which
+                // are nearly straight (bend < 15°).
                 let mut pure = 0;
-                for f in rots.chunks_exact(NUM_JOINTS) {
-                    for &(k, _, axis, _) in &HINGES {
+                for (f, p) in rots
+                    .chunks_exact(NUM_JOINTS)
+                    .zip(joints.chunks_exact(NUM_JOINTS))
+                {
+                    for &(k, c, axis, _) in &HINGES {
                         let rv = matrix_to_axis_angle(&f[k]);
                         let off: f64 = (0..3).filter(|&i| i != axis).map(|i| rv[i].abs()).sum();
-                        pure += (off < 1e-9) as usize;
+                        if off < 1e-9 {
+                            pure += 1;
+                            continue;
+                        }
+                        let upper = sub(p[k], p[PARENTS[k] as usize]);
+                        let lower = sub(p[c], p[k]);
+                        let bend = (dot(upper, lower) / (dot(upper, upper) * dot(lower, lower)).sqrt())
+                            .clamp(-1.0, 1.0)
+                            .acos()
+                            .to_degrees();
+                        assert!(bend < 15.0, "fallback limb {k} bent {bend:.1}°");
                     }
                 }
                 assert_eq!(pure + fallbacks, m.frames * 4);
