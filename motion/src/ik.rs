@@ -312,10 +312,11 @@ mod tests {
                         }
                         let upper = sub(p[k], p[PARENTS[k] as usize]);
                         let lower = sub(p[c], p[k]);
-                        let bend = (dot(upper, lower) / (dot(upper, upper) * dot(lower, lower)).sqrt())
-                            .clamp(-1.0, 1.0)
-                            .acos()
-                            .to_degrees();
+                        let bend = (dot(upper, lower)
+                            / (dot(upper, upper) * dot(lower, lower)).sqrt())
+                        .clamp(-1.0, 1.0)
+                        .acos()
+                        .to_degrees();
                         assert!(bend < 15.0, "fallback limb {k} bent {bend:.1}°");
                     }
                 }
