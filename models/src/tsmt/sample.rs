@@ -192,6 +192,7 @@ mod tests {
                 &audio,
                 100,
                 &opts,
+                &mut |_, _| {},
                 Some(&mut cached),
             );
             opts.cache = false;
@@ -299,6 +300,7 @@ mod tests {
                 &audio,
                 20,
                 &TsmtSampling { seed: 9, ..greedy },
+                &mut |_, _| {},
                 None
             )
         );
