@@ -178,7 +178,7 @@ pub fn render(a: RenderArgs) -> anyhow::Result<()> {
 /// positions become SMPL rotations by inverse kinematics (SPEC §11.3), with the bones at SMPL's lengths.
 #[derive(Args, Debug)]
 #[command(
-    about = "Convert a motion between .pkl, .npy and .bvh (joint positions → rotations by IK)",
+    about = "Convert a motion between .pkl, .npy and .bvh (joint positions by IK)",
     after_help = "Examples:\n  qean convert dance.pkl --out dance.bvh\n  qean convert other_system.joints.npy --out dance.pkl\n  qean convert other_system.joints.npy --out dance.bvh --ik hinge"
 )]
 pub struct ConvertArgs {
