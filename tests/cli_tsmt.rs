@@ -170,3 +170,34 @@ fn tsmt_trains_resumes_samples_and_evaluates() {
     run_ok(qean().arg("export").arg(&straight).arg("--out").arg(&st));
     assert!(st.is_file());
 }
+
+/// `qean sweep` runs TSMT variants unchanged (here the single and split audio streams).
+#[test]
+fn tsmt_variants_sweep() {
+    let d = tempfile::tempdir().unwrap();
+    let data = dataset(d.path());
+    let tiny = configs().join("tsmt/tiny.toml");
+    let sweep = d.path().join("tsmt-sweep.toml");
+    std::fs::write(
+        &sweep,
+        format!(
+            "base = {tiny:?}\nseeds = [0]\n\n[set]\n\"train.steps\" = 3\n\"train.checkpoint_every\" = 3\n\
+             \"train.batch_size\" = 4\n\"tsmt.window\" = 32\n\n[[variant]]\nname = \"single\"\nconfig = {tiny:?}\n\n\
+             [[variant]]\nname = \"split\"\nconfig = {tiny:?}\nset = {{ \"tsmt.audio_streams\" = \"split\" }}\n"
+        ),
+    )
+    .unwrap();
+    let text = run_ok(
+        qean()
+            .arg("sweep")
+            .arg("--config")
+            .arg(&sweep)
+            .arg("--data")
+            .arg(&data),
+    );
+    assert!(text.contains("| single-seed0 | single | 0 | 3 |"), "{text}");
+    assert!(text.contains("| split-seed0 | split | 0 | 3 |"), "{text}");
+    let config =
+        std::fs::read_to_string(d.path().join("tsmt-sweep-runs/split-seed0/config.toml")).unwrap();
+    assert!(config.contains("audio_streams = \"split\""), "{config}");
+}
