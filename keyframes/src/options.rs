@@ -1,0 +1,97 @@
+//! The `[keyframes]` settings (SPEC §12.7): every [DECISION] of §12.2–12.3 as an option, defaults as the SPEC.
+
+use crate::dp::{DpCombine, DpError, DpSpace};
+use crate::euler::EulerOrder;
+use crate::measure::{Boundary, Rounding};
+use crate::onset_keys::{Fallback, PeakPicker};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+/// Where the measure grid starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MeasureOffset {
+    /// A fixed number of frames (default 0: Lin does not align to a downbeat).
+    Frames(usize),
+    /// The first beat of the music's beat column (34).
+    FirstBeat,
+}
+
+impl Default for MeasureOffset {
+    fn default() -> Self {
+        MeasureOffset::Frames(0)
+    }
+}
+
+impl MeasureOffset {
+    /// The offset in frames, given the music's first beat when there is music.
+    pub fn resolve(self, first_beat: Option<usize>) -> Result<usize, String> {
+        match self {
+            MeasureOffset::Frames(f) => Ok(f),
+            MeasureOffset::FirstBeat => first_beat.ok_or_else(|| {
+                "measure_offset = \"first_beat\" needs music with at least one beat".into()
+            }),
+        }
+    }
+}
+
+impl Serialize for MeasureOffset {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            MeasureOffset::Frames(f) => s.serialize_u64(*f as u64),
+            MeasureOffset::FirstBeat => s.serialize_str("first_beat"),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for MeasureOffset {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Frames(u64),
+            Name(String),
+        }
+        match Raw::deserialize(d)? {
+            Raw::Frames(f) => Ok(MeasureOffset::Frames(f as usize)),
+            Raw::Name(n) if n == "first_beat" => Ok(MeasureOffset::FirstBeat),
+            Raw::Name(n) => Err(serde::de::Error::custom(format!(
+                "measure_offset must be a frame count or \"first_beat\", got {n:?}"
+            ))),
+        }
+    }
+}
+
+/// Keyframe selection settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct KeyframeOptions {
+    pub measure_rounding: Rounding,
+    pub segment_boundary: Boundary,
+    pub measure_offset: MeasureOffset,
+    /// Peaks closer than this many frames to a segment end are ignored (G, 5 frames = 83 ms).
+    pub kf_edge_guard: usize,
+    pub peak_picker: PeakPicker,
+    pub fallback: Fallback,
+    pub dp_error: DpError,
+    pub dp_combine: DpCombine,
+    pub dp_space: DpSpace,
+    pub euler_order: EulerOrder,
+    pub euler_unwrap: bool,
+}
+
+impl Default for KeyframeOptions {
+    fn default() -> Self {
+        KeyframeOptions {
+            measure_rounding: Rounding::Cumulative,
+            segment_boundary: Boundary::Shared,
+            measure_offset: MeasureOffset::Frames(0),
+            kf_edge_guard: 5,
+            peak_picker: PeakPicker::OnsetDetect,
+            fallback: Fallback::MaxPairSum,
+            dp_error: DpError::Chord,
+            dp_combine: DpCombine::Max,
+            dp_space: DpSpace::Euler75,
+            euler_order: EulerOrder::XYZ,
+            euler_unwrap: true,
+        }
+    }
+}

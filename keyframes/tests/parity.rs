@@ -1,0 +1,146 @@
+//! SPEC §12.8 parity: keys, DP, Euler, SLERP and Bézier on the shared AIST++ excerpt against the fixtures of
+//! tools/make_keyframe_fixtures.py (numpy + scipy).
+
+use qean_keyframes::bezier::{fit_pair, BezierParam};
+use qean_keyframes::dp::{error_table, select, selection_cost, DpCombine, DpError};
+use qean_keyframes::euler::{matrix_to_euler, motion_to_euler, EulerOrder};
+use qean_keyframes::even::even_keys;
+use qean_keyframes::select::{select_keys, Strategy};
+use qean_keyframes::{slerp, KeyframeOptions};
+use qean_motion::Motion;
+use std::path::PathBuf;
+
+fn fixture(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+}
+
+fn excerpt() -> Motion {
+    let p =
+        qean_io::testdata::shared_dir().join("aistpp/motions/softcat477_sample_with_scaling.pkl");
+    Motion::read_pkl(&p).unwrap()
+}
+
+fn npy(name: &str) -> (Vec<usize>, Vec<f64>) {
+    let a = qean_io::npy::read(&fixture(name)).unwrap();
+    (a.shape.clone(), a.data.clone())
+}
+
+fn json() -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(fixture("fixtures.json")).unwrap()).unwrap()
+}
+
+fn usizes(v: &serde_json::Value) -> Vec<usize> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap() as usize)
+        .collect()
+}
+
+#[test]
+fn euler_xyz_equals_scipy() {
+    let m = excerpt();
+    let (shape, want) = npy("softcat_euler_xyz.npy");
+    assert_eq!(shape, vec![127, 24, 3]);
+    let mut worst: f64 = 0.0;
+    for (i, r) in m.rotations().iter().enumerate() {
+        let e = matrix_to_euler(r, EulerOrder::XYZ);
+        for a in 0..3 {
+            worst = worst.max((e[a] - want[3 * i + a]).abs());
+        }
+    }
+    assert!(worst < 1e-13, "worst {worst:e}");
+}
+
+#[test]
+fn dp_table_keys_and_costs_equal_the_numpy_transcription() {
+    let m = excerpt();
+    let opts = KeyframeOptions::default();
+    let x = motion_to_euler(&m, opts.euler_order, true);
+    let (shape, want) = npy("softcat_dp_E_40_52.npy");
+    assert_eq!(shape, vec![13, 13]);
+    let e = error_table(&x[40 * 75..53 * 75], 75, DpError::Chord);
+    let worst = e
+        .iter()
+        .zip(&want)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-12, "worst {worst:e}");
+
+    let fx = json();
+    let e = error_table(&x[..121 * 75], 75, DpError::Chord);
+    for (n, key) in [(3, "dp_keys_n3"), (5, "dp_keys_n5"), (9, "dp_keys_n9")] {
+        let (keys, _) = select(&e, 121, n, DpCombine::Max);
+        assert_eq!(keys, usizes(&fx[key]), "N = {n}");
+    }
+    let (_, cost) = select(&e, 121, 5, DpCombine::Max);
+    assert!((cost - fx["dp_cost_n5"].as_f64().unwrap()).abs() < 1e-12);
+    let even = even_keys(0, 120, 5);
+    assert_eq!(even, usizes(&fx["even_keys_n5"]));
+    let even_cost = selection_cost(&e, 121, &even, DpCombine::Max);
+    assert!((even_cost - fx["even_cost_n5"].as_f64().unwrap()).abs() < 1e-12);
+    assert!(cost <= even_cost);
+}
+
+#[test]
+fn strategies_on_the_excerpt_at_120_bpm() {
+    let m = excerpt();
+    let opts = KeyframeOptions::default();
+    let even = select_keys(&m, None, Strategy::Even, 3, 120.0, 0, &opts).unwrap();
+    assert_eq!(even.segments, vec![(0, 120), (120, 126)]);
+    assert_eq!(&even.keyframes[..3], &[0, 60, 120]);
+    let dp = select_keys(&m, None, Strategy::Dp, 5, 120.0, 0, &opts).unwrap();
+    assert_eq!(&dp.keyframes[..5], &[0, 48, 72, 93, 120]);
+    let even5 = select_keys(&m, None, Strategy::Even, 5, 120.0, 0, &opts).unwrap();
+    for (d, e) in dp.segment_costs.iter().zip(&even5.segment_costs) {
+        assert!(d <= e, "dp {d} > even {e}");
+    }
+    // Music strategies without a curve fail clearly.
+    let err = select_keys(&m, None, Strategy::Onset, 5, 120.0, 0, &opts).unwrap_err();
+    assert!(err.contains("needs music"), "{err}");
+}
+
+#[test]
+fn slerp_equals_scipy() {
+    let m = excerpt();
+    let (shape, want) = npy("softcat_slerp_even5.npy");
+    assert_eq!(shape, vec![127, 24, 3, 3]);
+    let out = slerp::inbetween(&m, &[0, 30, 60, 90, 120, 126]);
+    let mut worst: f64 = 0.0;
+    for (i, r) in out.rotations().iter().enumerate() {
+        for k in 0..9 {
+            worst = worst.max((r[k] - want[9 * i + k]).abs());
+        }
+    }
+    assert!(worst < 1e-9, "worst {worst:e}");
+    for k in [0, 30, 60, 90, 120, 126] {
+        assert_eq!(out.poses[k * 72..k * 72 + 72], m.poses[k * 72..k * 72 + 72]);
+        assert_eq!(out.trans[k * 3..k * 3 + 3], m.trans[k * 3..k * 3 + 3]);
+    }
+}
+
+#[test]
+fn bezier_normal_equations_equal_scipy_lm() {
+    let m = excerpt();
+    let x = motion_to_euler(&m, EulerOrder::XYZ, true);
+    let (_, want) = npy("bezier_lm.npy");
+    for (i, case) in json()["bezier_cases"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+    {
+        let c = usizes(case);
+        let channel: Vec<f64> = x.chunks_exact(75).map(|r| r[c[0]]).collect();
+        let th = fit_pair(&channel, c[1], c[2], BezierParam::Handles).unwrap();
+        for a in 0..2 {
+            let w = want[2 * i + a];
+            assert!(
+                (th[a] - w).abs() <= 1e-8 * w.abs().max(1e-3),
+                "case {c:?}: {th:?} vs {w}"
+            );
+        }
+    }
+}
