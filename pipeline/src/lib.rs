@@ -7,6 +7,7 @@ pub mod curves;
 pub mod error;
 pub mod evaluate;
 pub mod generate;
+pub mod keyframes;
 pub mod tsmt;
 
 pub use error::{Error, Result};

@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 mod bench_cmd;
 mod data_cmds;
 mod demo_cmd;
+mod edit_cmds;
 mod features_cmd;
 mod sample_cmd;
 mod train_cmds;
@@ -34,6 +35,7 @@ pub enum Command {
     Joints(data_cmds::JointsArgs),
     Render(data_cmds::RenderArgs),
     Convert(data_cmds::ConvertArgs),
+    Keyframes(edit_cmds::KeyframesArgs),
     Train(train_cmds::TrainArgs),
     Sweep(train_cmds::SweepArgs),
     Export(train_cmds::ExportArgs),
@@ -88,6 +90,7 @@ fn run_data(command: Command) -> anyhow::Result<()> {
         Command::Joints(a) => data_cmds::joints(a),
         Command::Render(a) => data_cmds::render(a),
         Command::Convert(a) => data_cmds::convert(a),
+        Command::Keyframes(a) => edit_cmds::keyframes(a),
         Command::Eval(a) => {
             print!("{}", qean::eval_cli::run_eval(&a)?);
             Ok(())

@@ -1,0 +1,181 @@
+//! `qean keyframes`: a motion (and optionally its music) to keyframes per measure (SPEC §12.2–12.3), with
+//! the tempo from `--bpm`, an AIST++ name or the music's beat tracker.
+
+use crate::{Error, Result};
+use qean_audio::features::{features_for_file, FeatureOptions, COL_ENV};
+use qean_keyframes::select::{select_keys, Selection, Strategy};
+use qean_keyframes::KeyframeOptions;
+use qean_motion::motion::read_motion;
+use qean_motion::Motion;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// What to select.
+#[derive(Debug, Clone)]
+pub struct KeyframesRequest {
+    pub motion: PathBuf,
+    pub music: Option<PathBuf>,
+    pub strategy: Strategy,
+    pub n: usize,
+    pub bpm: Option<f64>,
+    pub options: KeyframeOptions,
+}
+
+/// The selection with where its inputs came from; written as the keyframes JSON.
+#[derive(Debug, Clone, Serialize)]
+pub struct KeyframesResult {
+    pub motion: String,
+    pub music: Option<String>,
+    pub frames: usize,
+    /// Where the tempo came from ("--bpm", "AIST++ music ID mBR0", "beat tracker").
+    pub tempo_source: String,
+    pub measure_offset: usize,
+    #[serde(flatten)]
+    pub selection: Selection,
+    pub options: KeyframeOptions,
+}
+
+/// The onset curve and first beat of a music file, one value per 60-fps frame.
+pub struct MusicCurve {
+    pub envelope: Vec<f64>,
+    pub first_beat: Option<usize>,
+    pub tempo_bpm: f64,
+}
+
+/// Column 0 (onset envelope) and the beats of the 35-D feature, computed on the whole track.
+pub fn music_curve(path: &Path, start_bpm: f64) -> Result<MusicCurve> {
+    let f = features_for_file(path, &FeatureOptions::with_start_bpm(start_bpm))?;
+    Ok(MusicCurve {
+        envelope: f.column(COL_ENV),
+        first_beat: f.beats.first().copied(),
+        tempo_bpm: f.tempo_bpm,
+    })
+}
+
+/// The AIST++ tempo of the first name that carries a music ID (motion `…_mBR0_ch01`, music `mBR0`).
+fn named_tempo(paths: &[&Path]) -> Option<(f64, String)> {
+    paths.iter().find_map(|p| {
+        let stem = p.file_stem()?.to_string_lossy().into_owned();
+        let id = qean_aistpp::names::music_id_of(&stem)?;
+        let bpm = qean_aistpp::names::tempo_prior(&id)?;
+        Some((bpm, format!("AIST++ music ID {id}")))
+    })
+}
+
+/// The tempo: `--bpm`, else an AIST++ name, else the music's beat tracker.
+pub fn resolve_tempo(
+    explicit: Option<f64>,
+    motion: &Path,
+    music: Option<&Path>,
+    curve: Option<&MusicCurve>,
+) -> Result<(f64, String)> {
+    if let Some(b) = explicit {
+        if !(b.is_finite() && b > 0.0) {
+            return Err(Error::Invalid(format!(
+                "--bpm must be a positive number, got {b}"
+            )));
+        }
+        return Ok((b, "--bpm".into()));
+    }
+    let mut names = vec![motion];
+    names.extend(music);
+    if let Some(t) = named_tempo(&names) {
+        return Ok(t);
+    }
+    match curve {
+        Some(c) if c.tempo_bpm > 0.0 => Ok((c.tempo_bpm, "the music's beat tracker".into())),
+        Some(_) => Err(Error::Invalid(format!(
+            "{}: the music has no beats to take a tempo from; pass --bpm",
+            music.map_or(motion, |m| m).display()
+        ))),
+        None => Err(Error::Invalid(format!(
+            "{}: no tempo: pass --bpm, or --music for the beat tracker (the name carries no AIST++ music ID)",
+            motion.display()
+        ))),
+    }
+}
+
+/// Select keyframes for one motion.
+pub fn select_keyframes(req: &KeyframesRequest) -> Result<KeyframesResult> {
+    let motion = read_motion(&req.motion)?;
+    let needs_music = req.strategy.needs_curve()
+        || req.options.measure_offset == qean_keyframes::options::MeasureOffset::FirstBeat;
+    let music = match (&req.music, needs_music) {
+        (Some(m), _) => Some(m.as_path()),
+        (None, true) => {
+            return Err(Error::Invalid(format!(
+                "{}: strategy {} needs the music: pass --music SONG",
+                req.motion.display(),
+                req.strategy.name()
+            )))
+        }
+        (None, false) => None,
+    };
+    let start_bpm = req
+        .bpm
+        .or_else(|| named_tempo(&[req.motion.as_path()]).map(|t| t.0))
+        .unwrap_or(120.0);
+    let curve = music
+        .map(|m| {
+            music_curve(
+                m,
+                if start_bpm.is_finite() && start_bpm > 0.0 {
+                    start_bpm
+                } else {
+                    120.0
+                },
+            )
+        })
+        .transpose()?;
+    let (bpm, tempo_source) = resolve_tempo(req.bpm, &req.motion, music, curve.as_ref())?;
+    if let (Some(c), Some(m)) = (&curve, music) {
+        if c.envelope.len() < motion.frames {
+            tracing::warn!(
+                "{}: the music has {} frames, the motion {}: frames past the music's end have no onsets",
+                m.display(),
+                c.envelope.len(),
+                motion.frames
+            );
+        }
+    }
+    let offset = req
+        .options
+        .measure_offset
+        .resolve(curve.as_ref().and_then(|c| c.first_beat))
+        .map_err(|e| Error::Invalid(format!("{}: {e}", req.motion.display())))?;
+    let selection = select(
+        &motion,
+        curve.as_ref().map(|c| c.envelope.as_slice()),
+        req,
+        bpm,
+        offset,
+    )?;
+    Ok(KeyframesResult {
+        motion: req.motion.display().to_string(),
+        music: music.map(|m| m.display().to_string()),
+        frames: motion.frames,
+        tempo_source,
+        measure_offset: offset,
+        selection,
+        options: req.options.clone(),
+    })
+}
+
+fn select(
+    motion: &Motion,
+    curve: Option<&[f64]>,
+    req: &KeyframesRequest,
+    bpm: f64,
+    offset: usize,
+) -> Result<Selection> {
+    select_keys(
+        motion,
+        curve,
+        req.strategy,
+        req.n,
+        bpm,
+        offset,
+        &req.options,
+    )
+    .map_err(|e| Error::Invalid(format!("{}: {e}", req.motion.display())))
+}
