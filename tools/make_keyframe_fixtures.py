@@ -2,8 +2,10 @@
 """Parity fixtures for keyframes and in-betweening (SPEC §12.8): Euler angles, SLERP, Bézier least squares
 and Roberts's keyframe DP on the shared AIST++ excerpt (softcat477's sample, 127 frames, 120 BPM assumed).
 
-Reference: numpy + scipy (tested with numpy 1.26.4, scipy 1.17.1).
-    python3 -m venv /work/venv-scipy && /work/venv-scipy/bin/pip install "numpy<2" scipy
+Reference: numpy + scipy (tested with numpy 1.26.4, scipy 1.17.1) and libnmfd 1.0.0.
+    python3 -m venv /work/venv-scipy && /work/venv-scipy/bin/pip install "numpy<2" scipy libnmfd==1.0.0
+(libnmfd's own requirements pin old jupyter/ipython; `pip install --no-deps libnmfd==1.0.0 tqdm soundfile
+matplotlib` is enough for `libnmfd.core.nmfconv`.)
 Run from the repo root:
     /work/venv-scipy/bin/python tools/make_keyframe_fixtures.py
 Writes keyframes/tests/fixtures/:
@@ -13,6 +15,9 @@ Writes keyframes/tests/fixtures/:
   softcat_dp_E_40_52.npy     (13, 13)  Roberts's chord error table on frames 40..52 of D_euler (75-D, unwrapped)
   bezier_lm.npy              (K, 2)  scipy least_squares(method="lm") θ for the (channel, pair) list in fixtures.json
   fixtures.json              keys (even, dp), the DP's cost, Bézier cases
+  nmfd_V.npy                 (1025, 100) float32  |STFT| (centred, periodic Hann 2048, hop 512) of the first
+                             100 frames of the Brahms WAV at its own rate
+  nmfd_H.npy, nmfd_cost.npy  (3, 100), (30,)  libnmfd nmfd(V) from init_templates(random, T = 8) and H = 1
 """
 import json
 
@@ -96,7 +101,37 @@ def bezier_cases(x):
     return cases, np.array(thetas)
 
 
+def nmfd_fixture():
+    from scipy.io import wavfile
+    import libnmfd.core.nmfconv as nmfconv
+    from libnmfd.core.nmfconv import init_activations, init_templates, nmfd
+
+    nmfconv.tnrange = lambda n, desc=None: range(n)  # its notebook progress bar needs ipywidgets
+
+    rate, y = wavfile.read("../shared/data/music/Brahms_Hungarian_Dance_5.wav")
+    y = y.astype(np.float64)
+    if y.ndim == 2:
+        y = y.mean(axis=1)
+    y = y / np.abs(y).max()
+    frames = 100
+    y = y[: 512 * (frames - 1) + 1]
+    padded = np.pad(y, 1024, mode="reflect")
+    win = 0.5 - 0.5 * np.cos(2 * np.pi * np.arange(2048) / 2048)
+    spec = np.stack([np.abs(np.fft.rfft(padded[512 * t:512 * t + 2048] * win)) for t in range(frames)], axis=1)
+    v = spec.astype(np.float32)
+    np.save(f"{FIX}/nmfd_V.npy", v)
+    v = v.astype(np.float64)
+    w0 = init_templates(num_comp=3, num_bins=v.shape[0], num_template_frames=8, strategy="random")
+    h0 = init_activations(num_comp=3, num_frames=v.shape[1], strategy="uniform")
+    _, h, _, cost, _ = nmfd(V=v, num_comp=3, num_frames=v.shape[1], num_iter=30, num_template_frames=8,
+                            init_W=w0, init_H=h0)
+    np.save(f"{FIX}/nmfd_H.npy", h)
+    np.save(f"{FIX}/nmfd_cost.npy", cost)
+    print("nmfd: H max", float(h.max()), "cost", float(cost[0]), "->", float(cost[-1]))
+
+
 def main():
+    nmfd_fixture()
     poses, trans = load()
     frames = len(poses)
     euler = Rotation.from_rotvec(poses.reshape(-1, 3)).as_euler("XYZ").reshape(frames, 24, 3)

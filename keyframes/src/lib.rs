@@ -13,6 +13,8 @@ pub mod euler;
 pub mod even;
 pub mod measure;
 pub mod mse;
+pub mod mt19937;
+pub mod nmfd;
 pub mod onset_keys;
 pub mod options;
 pub mod select;

@@ -144,3 +144,30 @@ fn bezier_normal_equations_equal_scipy_lm() {
         }
     }
 }
+
+#[test]
+fn nmfd_equals_libnmfd() {
+    use qean_keyframes::nmfd::{nmfd, random_templates, NmfdSize};
+    let (vshape, v) = npy("nmfd_V.npy");
+    let (_, want_h) = npy("nmfd_H.npy");
+    let (_, want_cost) = npy("nmfd_cost.npy");
+    let size = NmfdSize::default();
+    // The seed-42 templates start with numpy's first draw over (1 + ΣW).
+    let w = random_templates(vshape[0], &size);
+    assert!(w[0] > 0.0 && (w[0] * 1025.0 * 8.0 / 0.3745401188473625 - 2.0).abs() < 0.1);
+    let out = nmfd(&v, vshape[0], &size);
+    assert_eq!(out.activations.len(), want_h.len());
+    let hmax = want_h.iter().cloned().fold(0.0, f64::max);
+    let mut worst: f64 = 0.0;
+    for (a, b) in out.activations.iter().zip(&want_h) {
+        worst = worst.max((a - b).abs() / b.abs().max(1e-6 * hmax));
+    }
+    assert!(worst < 1e-9, "H relative error {worst:e}");
+    for (i, (a, b)) in out.cost.iter().zip(&want_cost).enumerate() {
+        assert!((a - b).abs() <= 1e-9 * b.abs(), "cost {i}: {a} vs {b}");
+    }
+    // KL cost never rises after the first update.
+    for w in out.cost[1..].windows(2) {
+        assert!(w[1] <= w[0] * (1.0 + 1e-12), "{:?}", out.cost);
+    }
+}
