@@ -731,6 +731,15 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
         ));
     }
     let data = dataset(out, &opts.budget)?;
+    // The music features, once, before the training processes start: three processes filling the
+    // same cache at once would replace each other's files under each other's reads.
+    let ds = qean_aistpp::dataset::Dataset::open(&data)?;
+    let computed = qean_train::data::ensure_features(&ds, &ds.all_sequences()?)?;
+    if computed > 0 {
+        say(format!(
+            "features: computed the music features of {computed} music IDs"
+        ));
+    }
     let presets = [
         ("fact", "tiny FACT", "configs/tiny/fact.toml"),
         (

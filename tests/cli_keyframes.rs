@@ -98,6 +98,87 @@ fn onset_keys_from_music() {
     assert!(keys.windows(2).all(|w| w[0] < w[1]));
 }
 
+/// A mono 16-bit WAV at 30720 Hz of `seconds` seconds from f(sample index).
+fn write_wav(path: &Path, seconds: f64, f: impl Fn(usize) -> f64) {
+    let n = (30720.0 * seconds) as usize;
+    let data: Vec<u8> = (0..n)
+        .flat_map(|i| ((f(i).clamp(-1.0, 1.0) * 32000.0) as i16).to_le_bytes())
+        .collect();
+    std::fs::write(
+        path,
+        qean_io::testdata::wav_bytes(1, 30720, 1, 16, &data, data.len() as u32),
+    )
+    .unwrap();
+}
+
+#[test]
+fn stem_and_nmfd_keys() {
+    let dir = tempfile::tempdir().unwrap();
+    let stems = dir.path().join("stems");
+    std::fs::create_dir(&stems).unwrap();
+    // Drum hits every 0.4 s (frames ≈ 24k); a bass line, quiet vocals and a pad without onsets.
+    let tau = std::f64::consts::TAU;
+    write_wav(&stems.join("drums.wav"), 2.5, |i| {
+        if i % 12288 < 200 {
+            0.8 * ((i % 12288) as f64 * 0.9).sin()
+        } else {
+            0.0
+        }
+    });
+    write_wav(&stems.join("bass.wav"), 2.5, |i| {
+        0.3 * (tau * 55.0 * i as f64 / 30720.0).sin()
+    });
+    write_wav(&stems.join("vocals.wav"), 2.5, |_| 0.0);
+    write_wav(&stems.join("other.wav"), 2.5, |i| {
+        0.2 * (tau * 330.0 * i as f64 / 30720.0).sin()
+    });
+    let mut keys = vec![];
+    for strategy in ["stems", "nmfd"] {
+        let json = dir.path().join(format!("{strategy}.json"));
+        let mut c = keyframes(&json, &["--bpm", "120", "--strategy", strategy, "--n", "5"]);
+        run_ok(c.arg("--stems").arg(&stems));
+        let v = read(&json);
+        keys.push(frames(&v["keyframes"]));
+    }
+    for (k, lead) in keys.iter().zip([0, 8]) {
+        assert_eq!((k[0], *k.last().unwrap()), (0, 126));
+        // The drum hits at multiples of 24 frames are the peaks both strategies key on; an NMFD activation
+        // marks where its 8-frame template starts, so it may lead the hit.
+        let near_hit = |f: usize| (1..5).any(|h| f + lead + 1 >= 24 * h && f <= 24 * h + 2);
+        let on_hits = k
+            .iter()
+            .filter(|&&f| f > 0 && f < 120 && near_hit(f as usize))
+            .count();
+        assert!(on_hits >= 2, "{k:?}");
+    }
+    // The HPSS stand-in needs only the music.
+    let json = dir.path().join("hpss.json");
+    let music = shared().join("music/Kevin_MacLeod_-_Vibe_Ace.ogg");
+    let mut c = keyframes(
+        &json,
+        &[
+            "--bpm",
+            "120",
+            "--strategy",
+            "stems",
+            "--set",
+            "keyframes.stem_source=hpss",
+        ],
+    );
+    run_ok(c.arg("--music").arg(&music));
+    assert_eq!(read(&json)["options"]["stem_source"], "hpss");
+    // A missing stem names itself; nothing is written.
+    std::fs::remove_file(stems.join("bass.wav")).unwrap();
+    let json = dir.path().join("missing.json");
+    let mut c = keyframes(&json, &["--bpm", "120", "--strategy", "stems"]);
+    assert_clean_failure(c.arg("--stems").arg(&stems), "bass.wav: stem missing");
+    assert_clean_failure(
+        &mut keyframes(&json, &["--bpm", "120", "--strategy", "nmfd"]),
+        "needs the stems",
+    );
+    assert!(!json.exists());
+}
+
 #[test]
 fn bad_inputs_fail_cleanly() {
     let dir = tempfile::tempdir().unwrap();

@@ -44,9 +44,9 @@ fn median_line(get: impl Fn(usize) -> f64, n: usize, out: &mut [f64]) {
     }
 }
 
-/// Percussive part of `y` (librosa 0.8.1 `effects.hpss(y)[1]`), same length as `y`.
-pub fn percussive(y: &[f64]) -> Vec<f64> {
-    let d = stft(y, N_FFT, HOP, &hann_periodic(N_FFT));
+/// librosa 0.8.1 `decompose.hpss` soft masks of a complex STFT (kernel 31, power 2, margin 1):
+/// (percussive, harmonic), frame-major like `d`; each pair sums to 1 (0.5 each where both medians vanish).
+pub fn hpss_masks(d: &ComplexStft) -> (Vec<f64>, Vec<f64>) {
     let (nf, nb) = (d.n_frames, d.n_bins);
     let mag: Vec<f64> = d.data.iter().map(|c| c.norm()).collect();
     // Harmonic: median over time per bin. Percussive: median over bins per frame.
@@ -59,21 +59,40 @@ pub fn percussive(y: &[f64]) -> Vec<f64> {
     perc.par_chunks_mut(nb)
         .enumerate()
         .for_each(|(t, out)| median_line(|k| mag[t * nb + k], nb, out));
-    // Soft mask perc²/(perc² + harm²), 0.5 where both vanish (split_zeros).
+    // Soft masks p²/(p² + h²) and h²/(p² + h²), 0.5 where both vanish (split_zeros).
     let tiny = f32::MIN_POSITIVE as f64;
-    let mut masked = d.data.clone();
+    let mut mask_p = vec![0.0; nf * nb];
+    let mut mask_h = vec![0.0; nf * nb];
     for t in 0..nf {
         for k in 0..nb {
             let (p, h) = (perc[t * nb + k], harm_t[k * nf + t]);
             let z = p.max(h);
-            let m = if z < tiny {
-                0.5
+            let i = t * nb + k;
+            if z < tiny {
+                mask_p[i] = 0.5;
+                mask_h[i] = 0.5;
             } else {
                 let (a, b) = ((p / z).powi(2), (h / z).powi(2));
-                a / (a + b)
-            };
-            masked[t * nb + k] *= m;
+                mask_p[i] = a / (a + b);
+                mask_h[i] = b / (a + b);
+            }
         }
+    }
+    (mask_p, mask_h)
+}
+
+/// The STFT of `y` with librosa's defaults (n_fft 2048, hop 512, periodic Hann, centred).
+pub fn default_stft(y: &[f64]) -> ComplexStft {
+    stft(y, N_FFT, HOP, &hann_periodic(N_FFT))
+}
+
+/// Percussive part of `y` (librosa 0.8.1 `effects.hpss(y)[1]`), same length as `y`.
+pub fn percussive(y: &[f64]) -> Vec<f64> {
+    let d = default_stft(y);
+    let (mask, _) = hpss_masks(&d);
+    let mut masked = d.data.clone();
+    for (c, m) in masked.iter_mut().zip(&mask) {
+        *c *= m;
     }
     let spec = ComplexStft { data: masked, ..d };
     let mut out = istft(&spec);
@@ -139,6 +158,21 @@ mod tests {
         for i in 0..z.len().min(y.len()) {
             assert!((z[i] - y[i]).abs() < 1e-9, "{i}");
         }
+    }
+
+    #[test]
+    fn masks_sum_to_one() {
+        let y: Vec<f64> = (0..30000)
+            .map(|i| ((i as f64) * 0.05).sin() + if i % 7000 == 0 { 1.0 } else { 0.0 })
+            .collect();
+        let mut padded = y.clone();
+        padded.extend(std::iter::repeat_n(0.0, 20000)); // silent tail: both medians vanish
+        let (p, h) = hpss_masks(&default_stft(&padded));
+        assert!(p
+            .iter()
+            .zip(&h)
+            .all(|(a, b)| (a + b - 1.0).abs() < 1e-15 && *a >= 0.0 && *b >= 0.0));
+        assert!(p.iter().any(|&a| a == 0.5));
     }
 
     #[test]

@@ -19,5 +19,6 @@ pub mod onset_keys;
 pub mod options;
 pub mod select;
 pub mod slerp;
+pub mod stems;
 
 pub use options::KeyframeOptions;

@@ -3,7 +3,9 @@
 use crate::dp::{DpCombine, DpError, DpSpace};
 use crate::euler::EulerOrder;
 use crate::measure::{Boundary, Rounding};
+use crate::nmfd::NmfdSize;
 use crate::onset_keys::{Fallback, PeakPicker};
+use crate::stems::StemSource;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 /// Where the measure grid starts.
@@ -71,6 +73,18 @@ pub struct KeyframeOptions {
     pub kf_edge_guard: usize,
     pub peak_picker: PeakPicker,
     pub fallback: Fallback,
+    /// Stems for `stems` and `nmfd`: user WAVs (`files`, default) or the HPSS stand-in (`hpss`).
+    pub stem_source: StemSource,
+    /// Weights of the drums, bass, vocals and other onset envelopes (Lin eq. 3.3).
+    pub stem_weights: [f64; 4],
+    /// NMFD components R (libnmfd's drum demo: 3).
+    pub nmfd_components: usize,
+    /// NMFD iterations L (30).
+    pub nmfd_iterations: usize,
+    /// NMFD template frames T (8).
+    pub nmfd_template_frames: usize,
+    /// Weights of the NMFD activations in the curve (one per component; default all 1).
+    pub nmfd_weights: Vec<f64>,
     pub dp_error: DpError,
     pub dp_combine: DpCombine,
     pub dp_space: DpSpace,
@@ -87,11 +101,55 @@ impl Default for KeyframeOptions {
             kf_edge_guard: 5,
             peak_picker: PeakPicker::OnsetDetect,
             fallback: Fallback::MaxPairSum,
+            stem_source: StemSource::Files,
+            stem_weights: [1.0; 4],
+            nmfd_components: 3,
+            nmfd_iterations: 30,
+            nmfd_template_frames: 8,
+            nmfd_weights: vec![1.0; 3],
             dp_error: DpError::Chord,
             dp_combine: DpCombine::Max,
             dp_space: DpSpace::Euler75,
             euler_order: EulerOrder::XYZ,
             euler_unwrap: true,
         }
+    }
+}
+
+impl KeyframeOptions {
+    /// The NMFD sizes.
+    pub fn nmfd_size(&self) -> NmfdSize {
+        NmfdSize {
+            components: self.nmfd_components,
+            iterations: self.nmfd_iterations,
+            template_frames: self.nmfd_template_frames,
+        }
+    }
+
+    /// Values no strategy can use, as one message.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.nmfd_components == 0 || self.nmfd_iterations == 0 || self.nmfd_template_frames == 0
+        {
+            return Err(
+                "nmfd_components, nmfd_iterations and nmfd_template_frames must be at least 1"
+                    .into(),
+            );
+        }
+        if self.nmfd_weights.len() != self.nmfd_components {
+            return Err(format!(
+                "nmfd_weights has {} values for {} NMFD components",
+                self.nmfd_weights.len(),
+                self.nmfd_components
+            ));
+        }
+        if self
+            .stem_weights
+            .iter()
+            .chain(&self.nmfd_weights)
+            .any(|w| !w.is_finite())
+        {
+            return Err("stem_weights and nmfd_weights must be finite".into());
+        }
+        Ok(())
     }
 }

@@ -3,7 +3,11 @@
 
 use crate::{Error, Result};
 use qean_audio::features::{features_for_file, FeatureOptions, COL_ENV};
+use qean_keyframes::nmfd::nmfd;
 use qean_keyframes::select::{select_keys, Selection, Strategy};
+use qean_keyframes::stems::{
+    hpss_stems, stem_from_samples, weighted_curve, Stem, StemSource, STEM_NAMES,
+};
 use qean_keyframes::KeyframeOptions;
 use qean_motion::motion::read_motion;
 use qean_motion::Motion;
@@ -15,6 +19,8 @@ use std::path::{Path, PathBuf};
 pub struct KeyframesRequest {
     pub motion: PathBuf,
     pub music: Option<PathBuf>,
+    /// The directory with drums.wav, bass.wav, vocals.wav and other.wav (`stem_source = "files"`).
+    pub stems: Option<PathBuf>,
     pub strategy: Strategy,
     pub n: usize,
     pub bpm: Option<f64>,
@@ -95,11 +101,106 @@ pub fn resolve_tempo(
     }
 }
 
+/// What a strategy reads besides the motion.
+fn needs(req: &KeyframesRequest) -> (bool, bool) {
+    let first_beat =
+        req.options.measure_offset == qean_keyframes::options::MeasureOffset::FirstBeat;
+    let stems = matches!(req.strategy, Strategy::Stems | Strategy::Nmfd);
+    let music = req.strategy == Strategy::Onset
+        || first_beat
+        || (stems && req.options.stem_source == StemSource::Hpss);
+    (music, stems && req.options.stem_source == StemSource::Files)
+}
+
+fn load_samples(path: &Path) -> Result<Vec<f64>> {
+    Ok(qean_audio::decode::load_audio(path, &Default::default())?.samples)
+}
+
+/// The stems a strategy uses, in `STEM_NAMES` order (`None`: not used or not present).
+fn stems(req: &KeyframesRequest, music: Option<&Path>) -> Result<[Option<Stem>; 4]> {
+    let only_drums = req.strategy == Strategy::Nmfd;
+    match req.options.stem_source {
+        StemSource::Hpss => {
+            let music = music.expect("checked by needs()");
+            let (drums, other) = hpss_stems(&load_samples(music)?);
+            Ok([Some(drums), None, None, (!only_drums).then_some(other)])
+        }
+        StemSource::Files => {
+            let dir = req.stems.as_deref().expect("checked by needs()");
+            let mut out: [Option<Stem>; 4] = Default::default();
+            for (i, name) in STEM_NAMES.iter().enumerate() {
+                let used = if only_drums {
+                    i == 0
+                } else {
+                    req.options.stem_weights[i] != 0.0
+                };
+                if !used {
+                    continue;
+                }
+                let path = dir.join(format!("{name}.wav"));
+                if !path.is_file() {
+                    return Err(Error::Invalid(format!(
+                        "{}: stem missing (strategy {} with stem_source = \"files\" reads {} from --stems; \
+                         or --set keyframes.stem_source=hpss)",
+                        path.display(),
+                        req.strategy.name(),
+                        STEM_NAMES.join(", ")
+                    )));
+                }
+                out[i] = Some(stem_from_samples(&load_samples(&path)?));
+            }
+            Ok(out)
+        }
+    }
+}
+
+/// The curve whose peaks a music strategy keys on: onset envelope, stem-weighted onsets or NMFD drums.
+fn strategy_curve(
+    req: &KeyframesRequest,
+    music: Option<&Path>,
+    music_curve: Option<&MusicCurve>,
+) -> Result<Option<Vec<f64>>> {
+    Ok(match req.strategy {
+        Strategy::Onset => music_curve.map(|c| c.envelope.clone()),
+        Strategy::Stems => {
+            let s = stems(req, music)?;
+            let envs = std::array::from_fn(|i| s[i].as_ref().map(|x| x.envelope.as_slice()));
+            Some(weighted_curve(&envs, req.options.stem_weights))
+        }
+        Strategy::Nmfd => {
+            let [Some(drums), ..] = stems(req, music)? else {
+                unreachable!("nmfd always loads the drums")
+            };
+            let f = nmfd(&drums.magnitude, drums.bins, &req.options.nmfd_size());
+            Some(f.curve(&req.options.nmfd_weights))
+        }
+        Strategy::Even | Strategy::Dp => None,
+    })
+}
+
 /// Select keyframes for one motion.
 pub fn select_keyframes(req: &KeyframesRequest) -> Result<KeyframesResult> {
+    req.options
+        .validate()
+        .map_err(|e| Error::Invalid(format!("keyframe options: {e}")))?;
     let motion = read_motion(&req.motion)?;
-    let needs_music = req.strategy.needs_curve()
-        || req.options.measure_offset == qean_keyframes::options::MeasureOffset::FirstBeat;
+    let (needs_music, needs_stems) = needs(req);
+    if needs_stems && req.stems.is_none() {
+        return Err(Error::Invalid(format!(
+            "{}: strategy {} needs the stems: pass --stems DIR (drums.wav, bass.wav, vocals.wav, other.wav) \
+             or --set keyframes.stem_source=hpss",
+            req.motion.display(),
+            req.strategy.name()
+        )));
+    }
+    if let Some(dir) = req.stems.as_deref().filter(|_| needs_stems) {
+        if !dir.is_dir() {
+            return Err(Error::Invalid(format!(
+                "{}: the stems directory does not exist",
+                dir.display()
+            )));
+        }
+    }
     let music = match (&req.music, needs_music) {
         (Some(m), _) => Some(m.as_path()),
         (None, true) => {
@@ -114,42 +215,27 @@ pub fn select_keyframes(req: &KeyframesRequest) -> Result<KeyframesResult> {
     let start_bpm = req
         .bpm
         .or_else(|| named_tempo(&[req.motion.as_path()]).map(|t| t.0))
+        .filter(|b| b.is_finite() && *b > 0.0)
         .unwrap_or(120.0);
-    let curve = music
-        .map(|m| {
-            music_curve(
-                m,
-                if start_bpm.is_finite() && start_bpm > 0.0 {
-                    start_bpm
-                } else {
-                    120.0
-                },
-            )
-        })
-        .transpose()?;
+    let curve = music.map(|m| music_curve(m, start_bpm)).transpose()?;
     let (bpm, tempo_source) = resolve_tempo(req.bpm, &req.motion, music, curve.as_ref())?;
-    if let (Some(c), Some(m)) = (&curve, music) {
-        if c.envelope.len() < motion.frames {
-            tracing::warn!(
-                "{}: the music has {} frames, the motion {}: frames past the music's end have no onsets",
-                m.display(),
-                c.envelope.len(),
-                motion.frames
-            );
-        }
-    }
     let offset = req
         .options
         .measure_offset
         .resolve(curve.as_ref().and_then(|c| c.first_beat))
         .map_err(|e| Error::Invalid(format!("{}: {e}", req.motion.display())))?;
-    let selection = select(
-        &motion,
-        curve.as_ref().map(|c| c.envelope.as_slice()),
-        req,
-        bpm,
-        offset,
-    )?;
+    let keyed = strategy_curve(req, music, curve.as_ref())?;
+    if let Some(c) = &keyed {
+        if c.len() < motion.frames {
+            tracing::warn!(
+                "{}: the music curve has {} frames, the motion {}: frames past its end have no onsets",
+                req.motion.display(),
+                c.len(),
+                motion.frames
+            );
+        }
+    }
+    let selection = select(&motion, keyed.as_deref(), req, bpm, offset)?;
     Ok(KeyframesResult {
         motion: req.motion.display().to_string(),
         music: music.map(|m| m.display().to_string()),

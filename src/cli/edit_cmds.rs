@@ -27,6 +27,10 @@ pub struct KeyframesArgs {
     /// Its music (needed by onset, stems and nmfd; gives a tempo when the name does not).
     #[arg(long)]
     pub music: Option<PathBuf>,
+    /// Stems of the music for `stems` and `nmfd`: a directory with drums.wav, bass.wav, vocals.wav and
+    /// other.wav (e.g. OpenUnmix's output). Without stems, --set keyframes.stem_source=hpss uses HPSS.
+    #[arg(long)]
+    pub stems: Option<PathBuf>,
     /// even, onset, stems, nmfd or dp.
     #[arg(long, default_value = "even")]
     pub strategy: String,
@@ -79,6 +83,7 @@ pub fn keyframes(a: KeyframesArgs) -> anyhow::Result<()> {
     let result = select_keyframes(&KeyframesRequest {
         motion: a.motion.clone(),
         music: a.music.clone(),
+        stems: a.stems.clone(),
         strategy,
         n: a.n,
         bpm: a.bpm,
