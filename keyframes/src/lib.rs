@@ -9,6 +9,7 @@
 
 pub mod bezier;
 pub mod dp;
+pub mod edit;
 pub mod euler;
 pub mod even;
 pub mod measure;

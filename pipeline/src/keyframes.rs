@@ -178,12 +178,17 @@ fn strategy_curve(
     })
 }
 
-/// Select keyframes for one motion.
+/// Select keyframes for the motion file of the request.
 pub fn select_keyframes(req: &KeyframesRequest) -> Result<KeyframesResult> {
     req.options
         .validate()
         .map_err(|e| Error::Invalid(format!("keyframe options: {e}")))?;
     let motion = read_motion(&req.motion)?;
+    select_keyframes_of(&motion, req)
+}
+
+/// Select keyframes for a motion already read (`req.motion` names it in messages and gives its tempo).
+pub fn select_keyframes_of(motion: &Motion, req: &KeyframesRequest) -> Result<KeyframesResult> {
     let (needs_music, needs_stems) = needs(req);
     if needs_stems && req.stems.is_none() {
         return Err(Error::Invalid(format!(
@@ -235,7 +240,7 @@ pub fn select_keyframes(req: &KeyframesRequest) -> Result<KeyframesResult> {
             );
         }
     }
-    let selection = select(&motion, keyed.as_deref(), req, bpm, offset)?;
+    let selection = select(motion, keyed.as_deref(), req, bpm, offset)?;
     Ok(KeyframesResult {
         motion: req.motion.display().to_string(),
         music: music.map(|m| m.display().to_string()),

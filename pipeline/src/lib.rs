@@ -4,6 +4,7 @@
 //! [`curves`] evaluates the checkpoints a curve still lacks. Every entry point takes a typed request.
 
 pub mod curves;
+pub mod edit;
 pub mod error;
 pub mod evaluate;
 pub mod generate;

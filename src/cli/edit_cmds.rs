@@ -111,3 +111,129 @@ pub fn keyframes(a: KeyframesArgs) -> anyhow::Result<()> {
     println!("wrote {}", a.json.display());
     Ok(())
 }
+
+#[derive(Args, Debug)]
+#[command(
+    about = "Edit a dance: keep some poses, set others, regenerate the frames in between",
+    long_about = "Edit a dance (SPEC §12.7). edits.json names the ranges to regenerate and what to keep:\n\n  \
+{\"regenerate\": [[120, 240]], \"keep\": \"grid:5\", \"edits\": [{\"frame\": 180, \"pose_aa\": [72 values], \"trans\": [x, y, z]}]}\n\n\
+\"keep\" is \"grid:N\" (N even keys per measure), \"dp:N\" (the DP's salient poses), \"onset:N\" (music onsets; needs \
+--music) or a list of frames; \"edits\" set new poses (axis-angle, 24 joints) and optionally the root translation. \
+In each range the anchors are its ends, the kept frames and the edited frames; every other frame of the range is \
+regenerated (slerp: straight root path and shortest-arc joint turns; bezier: cubic curves per Euler channel with \
+the mean shape of the input's own key pairs). Frames outside the ranges are copied bit for bit. Writes OUT.pkl and \
+OUT.report.json (anchors and per-range error against the input); --render adds OUT.png and OUT.gif.",
+    after_help = "Examples:\n  qean edit --motion dance.pkl --edits edits.json --method slerp --bpm 120 --out edited.pkl\n  \
+qean edit --motion dance.pkl --music song.wav --edits edits.json --method bezier --out edited.pkl --render"
+)]
+pub struct EditArgs {
+    /// The dance: an AIST++ .pkl or a model-layout .npy (frames, 225|219).
+    #[arg(long)]
+    pub motion: PathBuf,
+    /// Its music (for keep = "onset:N" and the tempo).
+    #[arg(long)]
+    pub music: Option<PathBuf>,
+    /// Stems directory (keep rules on stems; see `qean keyframes --help`).
+    #[arg(long)]
+    pub stems: Option<PathBuf>,
+    /// The edits: {"regenerate": [[a, b], ...], "keep": ..., "edits": [...]}.
+    #[arg(long)]
+    pub edits: PathBuf,
+    /// slerp or bezier.
+    #[arg(long, value_enum, default_value_t = MethodArg::Slerp)]
+    pub method: MethodArg,
+    /// Tempo for the measure grid of keep rules (else from the names or the music).
+    #[arg(long)]
+    pub bpm: Option<f64>,
+    /// A [keyframes] or [inbetween] setting, e.g. keyframes.dp_error=lerp or inbetween.bezier_param=chord.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// The edited dance (.pkl).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also draw OUT.png (contact sheet) and OUT.gif.
+    #[arg(long)]
+    pub render: bool,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum MethodArg {
+    Slerp,
+    Bezier,
+}
+
+/// `--set inbetween.*` values for the Bézier in-betweener.
+fn bezier_settings(sets: &[String]) -> anyhow::Result<qean_keyframes::bezier::BezierSettings> {
+    use qean_keyframes::bezier::{BezierAverage, BezierParam};
+    let mut s = qean_keyframes::bezier::BezierSettings::default();
+    for spec in sets {
+        let (parts, value) = qean_config::run::parse_override(spec).map_err(anyhow::Error::msg)?;
+        let [t, key] = parts.as_slice() else { continue };
+        if t != "inbetween" {
+            continue;
+        }
+        let bad = |e: toml::de::Error| {
+            anyhow::anyhow!(
+                "--set {spec}: {}",
+                e.to_string().lines().next().unwrap_or("").trim()
+            )
+        };
+        match key.as_str() {
+            "bezier_param" => s.param = BezierParam::deserialize(value).map_err(bad)?,
+            "bezier_average" => s.average = BezierAverage::deserialize(value).map_err(bad)?,
+            other => anyhow::bail!("--set {spec}: unknown [inbetween] setting {other:?} (bezier_param, bezier_average)"),
+        }
+    }
+    Ok(s)
+}
+
+pub fn edit(a: EditArgs) -> anyhow::Result<()> {
+    let keyframe_sets: Vec<String> = a
+        .set
+        .iter()
+        .filter(|s| !s.trim_start().starts_with("inbetween."))
+        .cloned()
+        .collect();
+    let mut bezier = bezier_settings(&a.set)?;
+    let options = keyframe_options(&keyframe_sets)?;
+    bezier.order = options.euler_order;
+    bezier.unwrap = options.euler_unwrap;
+    let report = qean_pipeline::edit::edit(&qean_pipeline::edit::EditRequest {
+        motion: a.motion.clone(),
+        music: a.music.clone(),
+        stems: a.stems.clone(),
+        edits: a.edits.clone(),
+        method: match a.method {
+            MethodArg::Slerp => qean_pipeline::edit::EditMethod::Slerp,
+            MethodArg::Bezier => qean_pipeline::edit::EditMethod::Bezier,
+        },
+        bpm: a.bpm,
+        options,
+        bezier,
+        out: a.out.clone(),
+        render: a.render,
+    })?;
+    for r in &report.ranges {
+        println!(
+            "range {}..{}: {} anchors, {} frames regenerated, MSE vs input {:.4} (rotation matrices)",
+            r.range.0,
+            r.range.1,
+            r.anchors.len(),
+            r.range.1 - r.range.0 + 1 - r.anchors.len(),
+            r.mse_rotmat
+        );
+    }
+    println!(
+        "wrote {} and {}",
+        a.out.display(),
+        qean_pipeline::edit::sibling(&a.out, "report.json").display()
+    );
+    if a.render {
+        println!(
+            "preview: {} and {}",
+            qean_pipeline::edit::sibling(&a.out, "png").display(),
+            qean_pipeline::edit::sibling(&a.out, "gif").display()
+        );
+    }
+    Ok(())
+}

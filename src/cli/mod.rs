@@ -36,6 +36,7 @@ pub enum Command {
     Render(data_cmds::RenderArgs),
     Convert(data_cmds::ConvertArgs),
     Keyframes(edit_cmds::KeyframesArgs),
+    Edit(edit_cmds::EditArgs),
     Train(train_cmds::TrainArgs),
     Sweep(train_cmds::SweepArgs),
     Export(train_cmds::ExportArgs),
@@ -91,6 +92,7 @@ fn run_data(command: Command) -> anyhow::Result<()> {
         Command::Render(a) => data_cmds::render(a),
         Command::Convert(a) => data_cmds::convert(a),
         Command::Keyframes(a) => edit_cmds::keyframes(a),
+        Command::Edit(a) => edit_cmds::edit(a),
         Command::Eval(a) => {
             print!("{}", qean::eval_cli::run_eval(&a)?);
             Ok(())

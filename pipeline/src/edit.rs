@@ -1,0 +1,210 @@
+//! `qean edit` (SPEC §12.7): read a dance and edits.json, resolve the kept frames, regenerate the ranges
+//! and write the edited dance, its report and (optionally) a preview — all checked before anything is
+//! written.
+
+use crate::keyframes::{select_keyframes_of, KeyframesRequest};
+use crate::{Error, Result};
+use qean_keyframes::bezier::{BezierSettings, MeanTheta};
+use qean_keyframes::edit::{apply, EditSpec, Keep, Method, RangeReport};
+use qean_keyframes::even::even_keys;
+use qean_keyframes::select::Strategy;
+use qean_keyframes::KeyframeOptions;
+use qean_motion::motion::{read_motion, Precision};
+use qean_motion::{FkRoot, Motion};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// How regenerated frames are drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EditMethod {
+    Slerp,
+    Bezier,
+}
+
+#[derive(Debug, Clone)]
+pub struct EditRequest {
+    pub motion: PathBuf,
+    pub music: Option<PathBuf>,
+    pub stems: Option<PathBuf>,
+    pub edits: PathBuf,
+    pub method: EditMethod,
+    pub bpm: Option<f64>,
+    pub options: KeyframeOptions,
+    pub bezier: BezierSettings,
+    pub out: PathBuf,
+    /// Also write `<out>.png` and `<out>.gif`.
+    pub render: bool,
+}
+
+/// The report written beside the output.
+#[derive(Debug, Clone, Serialize)]
+pub struct EditReport {
+    pub input: String,
+    pub output: String,
+    pub method: EditMethod,
+    /// The checkpoint of a learnt method (none for slerp and bezier).
+    pub checkpoint: Option<String>,
+    pub keep: String,
+    /// Where the Bézier θ came from.
+    pub theta_source: Option<String>,
+    pub edited_frames: Vec<usize>,
+    pub ranges: Vec<RangeReport>,
+    pub frames: usize,
+}
+
+/// `out.pkl` → `out.report.json` (and `.png`/`.gif` for previews).
+pub fn sibling(out: &Path, ext: &str) -> PathBuf {
+    out.with_extension(ext)
+}
+
+fn keep_label(k: &Keep) -> String {
+    match k {
+        Keep::Ends => "range ends".into(),
+        Keep::Grid(n) => format!("grid:{n}"),
+        Keep::Dp(n) => format!("dp:{n}"),
+        Keep::Onset(n) => format!("onset:{n}"),
+        Keep::Frames(f) => format!("{} frames", f.len()),
+    }
+}
+
+/// The frames `keep` names, over the whole motion.
+fn kept_frames(motion: &Motion, req: &EditRequest, keep: &Keep) -> Result<Vec<usize>> {
+    let rule = |strategy, n| KeyframesRequest {
+        motion: req.motion.clone(),
+        music: req.music.clone(),
+        stems: req.stems.clone(),
+        strategy,
+        n,
+        bpm: req.bpm,
+        options: req.options.clone(),
+    };
+    let selected = |strategy, n| -> Result<Vec<usize>> {
+        Ok(select_keyframes_of(motion, &rule(strategy, n))?
+            .selection
+            .keyframes)
+    };
+    match keep {
+        Keep::Ends => Ok(vec![]),
+        Keep::Frames(f) => Ok(f.clone()),
+        Keep::Grid(n) => selected(Strategy::Even, *n),
+        Keep::Dp(n) => selected(Strategy::Dp, *n),
+        Keep::Onset(n) => selected(Strategy::Onset, *n),
+    }
+}
+
+/// The Bézier θ: the mean over the input's own key pairs that lie outside every range (keys from the
+/// keep rule when it is one, else every 30 frames); the whole input when no pair is outside.
+fn own_theta(
+    motion: &Motion,
+    spec: &EditSpec,
+    kept: &[usize],
+    settings: &BezierSettings,
+) -> (MeanTheta, String) {
+    let keys: Vec<usize> = match spec.keep {
+        Keep::Grid(_) | Keep::Dp(_) | Keep::Onset(_) if kept.len() >= 2 => kept.to_vec(),
+        _ => even_keys(0, motion.frames - 1, (motion.frames - 1) / 30 + 2),
+    };
+    let outside = |a: usize, b: usize| spec.regenerate.iter().all(|&(s, e)| b < s || a > e);
+    let mut mean = MeanTheta::default();
+    let mut pairs = 0;
+    // Pairs with at least 2 frames between them (others fix no θ).
+    for w in keys
+        .windows(2)
+        .filter(|w| w[1] >= w[0] + 3 && outside(w[0], w[1]))
+    {
+        mean.add(motion, w, settings);
+        pairs += 1;
+    }
+    if pairs == 0 {
+        mean.add(motion, &keys, settings);
+        return (
+            mean,
+            format!(
+                "fitted on all {} key pairs of the input",
+                keys.len().saturating_sub(1)
+            ),
+        );
+    }
+    (
+        mean,
+        format!("fitted on {pairs} key pairs of the input outside the ranges"),
+    )
+}
+
+/// Run an edit; returns the report (already written beside the output).
+pub fn edit(req: &EditRequest) -> Result<EditReport> {
+    req.options
+        .validate()
+        .map_err(|e| Error::Invalid(format!("keyframe options: {e}")))?;
+    let motion = read_motion(&req.motion)?;
+    let text = std::fs::read_to_string(&req.edits)
+        .map_err(|e| Error::Invalid(format!("{}: cannot read: {e}", req.edits.display())))?;
+    let spec = EditSpec::parse(&text, motion.frames)
+        .map_err(|e| Error::Invalid(format!("{}: {e}", req.edits.display())))?;
+    if let Some(dir) = req.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            return Err(Error::Invalid(format!(
+                "{}: the output directory does not exist",
+                req.out.display()
+            )));
+        }
+    }
+    if qean_io::fsutil::extension_lower(&req.out) != "pkl" {
+        return Err(Error::Invalid(format!(
+            "{}: the edited dance is written as .pkl",
+            req.out.display()
+        )));
+    }
+    let kept = kept_frames(&motion, req, &spec.keep)?;
+    let (theta, theta_source) = match req.method {
+        EditMethod::Slerp => (None, None),
+        EditMethod::Bezier => {
+            let (t, s) = own_theta(&motion, &spec, &kept, &req.bezier);
+            (Some(t), Some(s))
+        }
+    };
+    let method = match &theta {
+        None => Method::Slerp,
+        Some(t) => Method::Bezier(t, req.bezier),
+    };
+    let (out, ranges) = apply(&motion, &spec, &kept, &method);
+    // The input's smpl_scaling is kept (SPEC §12.7 writes 1.0) so that untouched frames stay bit-identical
+    // in smpl_trans too.
+    let mut written = out;
+    written.extra.clear();
+    let report = EditReport {
+        input: req.motion.display().to_string(),
+        output: req.out.display().to_string(),
+        method: req.method,
+        checkpoint: None,
+        keep: keep_label(&spec.keep),
+        theta_source,
+        edited_frames: spec.edits.iter().map(|e| e.frame).collect(),
+        ranges,
+        frames: motion.frames,
+    };
+    let json = serde_json::to_string_pretty(&report).expect("plain data") + "\n";
+    written.write_pkl(&req.out, Precision::F64)?;
+    qean_io::fsutil::atomic_write(&sibling(&req.out, "report.json"), json.as_bytes())?;
+    if req.render {
+        let joints = written.joints(FkRoot::Smpl);
+        let preview = qean_render::Preview {
+            title: req
+                .out
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            joints: &joints,
+            fps: qean_motion::motion::FPS,
+            beats: None,
+            seed_frames: 0,
+        };
+        qean_render::write_preview(
+            &preview,
+            &sibling(&req.out, "png"),
+            &sibling(&req.out, "gif"),
+        )?;
+    }
+    Ok(report)
+}
