@@ -22,10 +22,10 @@ use qean_pipeline::evaluate::{evaluate_run, RunEvalRequest, SamplingOverrides};
 pub struct Args {
     /// Directory of generated motions, seed frames first: joint positions as .npy (T, 24, 3) or (T, 72), model
     /// vectors .npy (T, 225|219), AIST++ .pkl (forward kinematics applied) or .bvh.
-    #[arg(long, required_unless_present = "run", requires = "reference")]
+    #[arg(long, required_unless_present_any = ["run", "task"], requires = "reference")]
     pub generated: Option<PathBuf>,
     /// Directory of ground-truth motions (the normalisation and FID reference set), same format.
-    #[arg(long, required_unless_present = "run", requires = "generated")]
+    #[arg(long, required_unless_present_any = ["run", "task"], requires = "generated")]
     pub reference: Option<PathBuf>,
     /// Checkpoint mode: a training run directory. Samples the test + val sequences of --data with its
     /// checkpoint (seed = first 120 GT frames, --max-frames generated), evaluates them against every
@@ -35,9 +35,36 @@ pub struct Args {
     /// Checkpoint mode: which checkpoint of --run (step-N, N or a path; default the newest).
     #[arg(long, requires = "run")]
     pub checkpoint: Option<String>,
-    /// Checkpoint mode: the AIST++-layout dataset (motions/, wav/, splits).
-    #[arg(long, requires = "run")]
+    /// Checkpoint mode and --task inbetween: the AIST++-layout dataset (motions/, wav/, splits).
+    #[arg(long)]
     pub data: Option<PathBuf>,
+    /// What to score: dances (generated motions; the default) or inbetween (Lin's keyframe benchmark:
+    /// each test + val dance of --data rebuilt from N keys per measure, scored against the originals).
+    #[arg(long, value_enum, default_value_t = Task::Dances)]
+    pub task: Task,
+    /// --task inbetween: keys per measure, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "3,5,9")]
+    pub keys: Vec<usize>,
+    /// --task inbetween: keyframe strategies (even, onset, stems, nmfd, dp); with --methods, every
+    /// combination. Default: Lin's rows (even × linear/bezier, dp × bezier_fit/linear, onset/stems/nmfd × linear).
+    #[arg(long, value_delimiter = ',')]
+    pub strategies: Vec<String>,
+    /// --task inbetween: in-betweeners (linear, bezier = training mean θ, bezier_fit = fitted per dance).
+    #[arg(long, value_delimiter = ',')]
+    pub methods: Vec<String>,
+    /// --task inbetween: stems as DIR/<music ID>/{drums,bass,vocals,other}.wav (default DATA/stems).
+    #[arg(long)]
+    pub stems: Option<PathBuf>,
+    /// --task inbetween: keep Ballet Jazz (Lin drops it).
+    #[arg(long)]
+    pub include_jb: bool,
+    /// --task inbetween: a keyframes.* or inbetween.* setting (docs/keyframes.md), e.g.
+    /// keyframes.stem_source=hpss or inbetween.mse_space=joints.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// --task inbetween: the directory for report.{md,json}.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
     /// Checkpoint mode: paired (each motion with its own music) or unpaired (mint: 10 music draws per motion).
     #[arg(long, value_enum, default_value_t = Protocol::Paired)]
     pub protocol: Protocol,
@@ -156,6 +183,13 @@ pub struct Args {
     pub fk_root: RootArg,
 }
 
+/// What `qean eval` scores.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Task {
+    Dances,
+    Inbetween,
+}
+
 /// Root convention for forward kinematics (SPEC §3.3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum RootArg {
@@ -254,6 +288,12 @@ impl Args {
 
 /// Runs `qean eval`; returns the markdown table to print.
 pub fn run_eval(args: &Args) -> anyhow::Result<String> {
+    if args.task == Task::Inbetween {
+        return run_inbetween(args);
+    }
+    if args.data.is_some() && args.run.is_none() {
+        bail!("--data goes with --run R (checkpoint mode) or --task inbetween");
+    }
     match &args.run {
         Some(run) => Ok(evaluate_run(&args.run_request(run)?)?.table),
         None => Ok(evaluate_dirs(&args.dir_request()?)?.1),
@@ -331,4 +371,65 @@ pub fn run_curves(a: &CurvesArgs) -> anyhow::Result<String> {
         title: a.title.clone(),
         tag: a.tag.clone(),
     })?)
+}
+
+/// `qean eval --task inbetween`: Lin's reconstruction benchmark.
+fn run_inbetween(args: &Args) -> anyhow::Result<String> {
+    use qean_keyframes::select::Strategy;
+    use qean_pipeline::inbetween::{default_rows, run, IbMethod, InbetweenRequest};
+    let data = args
+        .data
+        .clone()
+        .context("--task inbetween needs --data DIR (the AIST++-layout dataset)")?;
+    let out = args
+        .out
+        .clone()
+        .context("--task inbetween needs --out DIR (for report.md and report.json)")?;
+    if args.run.is_some() || args.generated.is_some() {
+        bail!("--task inbetween scores the dataset's own dances: drop --run/--generated");
+    }
+    let strategies = args
+        .strategies
+        .iter()
+        .map(|s| Strategy::parse(s.trim()))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(anyhow::Error::msg)?;
+    let methods = args
+        .methods
+        .iter()
+        .map(|m| IbMethod::parse(m.trim()))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(anyhow::Error::msg)?;
+    let rows = if strategies.is_empty() && methods.is_empty() {
+        default_rows()
+    } else {
+        let strategies = if strategies.is_empty() {
+            vec![Strategy::Even]
+        } else {
+            strategies
+        };
+        let methods = if methods.is_empty() {
+            vec![IbMethod::Linear]
+        } else {
+            methods
+        };
+        strategies
+            .iter()
+            .flat_map(|&s| methods.iter().map(move |&m| (s, m)))
+            .collect()
+    };
+    let settings = crate::keyframe_settings::parse(&args.set)?;
+    let (_, md) = run(&InbetweenRequest {
+        data,
+        keys: args.keys.clone(),
+        rows,
+        out: out.clone(),
+        options: settings.keyframes,
+        bezier: settings.bezier,
+        mse_space: settings.mse_space,
+        include_jb: args.include_jb,
+        stems: args.stems.clone(),
+        root: args.fk_root.fk(),
+    })?;
+    Ok(format!("{md}\nwrote {}\n", out.join("report.md").display()))
 }

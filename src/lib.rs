@@ -3,4 +3,5 @@
 pub mod bench;
 pub mod demo;
 pub mod eval_cli;
+pub mod keyframe_settings;
 pub mod logging;

@@ -102,3 +102,10 @@ fn functions_stay_short() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn keyframes_build_without_burn_or_images() {
+    assert_none("qean-keyframes", |d| {
+        d.starts_with("burn") || d == "png" || d == "gif"
+    });
+}

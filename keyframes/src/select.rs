@@ -10,7 +10,7 @@ use qean_motion::{FkRoot, Layout, Motion};
 use serde::{Deserialize, Serialize};
 
 /// A keyframe strategy (Lin's KF_* labels).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Strategy {
     /// KF_even: evenly spaced.

@@ -2,9 +2,7 @@
 
 use clap::Args;
 use qean_keyframes::select::Strategy;
-use qean_keyframes::KeyframeOptions;
 use qean_pipeline::keyframes::{select_keyframes, KeyframesRequest};
-use serde::Deserialize;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
@@ -40,37 +38,12 @@ pub struct KeyframesArgs {
     /// Tempo in beats per minute (4/4: a measure is 14400/BPM frames at 60 fps).
     #[arg(long)]
     pub bpm: Option<f64>,
-    /// A [keyframes] setting, e.g. keyframes.kf_edge_guard=3 or keyframes.dp_error=lerp (configs/README.md).
+    /// A [keyframes] setting, e.g. keyframes.kf_edge_guard=3 or keyframes.dp_error=lerp (docs/keyframes.md).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
     /// Where to write the keys: {"segments": [[a, b], ...], "keyframes": [...], "strategy", "n", ...}.
     #[arg(long)]
     pub json: PathBuf,
-}
-
-/// `[keyframes]` settings from `--set keyframes.key=value` overrides.
-pub fn keyframe_options(sets: &[String]) -> anyhow::Result<KeyframeOptions> {
-    let mut table = toml::Table::new();
-    for spec in sets {
-        let (parts, value) = qean_config::run::parse_override(spec).map_err(anyhow::Error::msg)?;
-        let [t, key] = parts.as_slice() else {
-            anyhow::bail!("--set {spec}: only keyframes.* settings apply here");
-        };
-        if t != "keyframes" {
-            anyhow::bail!("--set {spec}: only keyframes.* settings apply here");
-        }
-        // Each setting alone first, so that an error names the one at fault.
-        let single = toml::Table::from_iter([(key.clone(), value.clone())]);
-        if let Err(e) = KeyframeOptions::deserialize(toml::Value::Table(single)) {
-            let first = e.to_string();
-            anyhow::bail!(
-                "--set {spec}: {}",
-                first.lines().next().unwrap_or("").trim()
-            );
-        }
-        table.insert(key.clone(), value);
-    }
-    Ok(KeyframeOptions::deserialize(toml::Value::Table(table))?)
 }
 
 pub fn keyframes(a: KeyframesArgs) -> anyhow::Result<()> {
@@ -87,7 +60,7 @@ pub fn keyframes(a: KeyframesArgs) -> anyhow::Result<()> {
         strategy,
         n: a.n,
         bpm: a.bpm,
-        options: keyframe_options(&a.set)?,
+        options: qean::keyframe_settings::parse(&a.set)?.keyframes,
     })?;
     let text = serde_json::to_string_pretty(&result)? + "\n";
     qean_io::fsutil::atomic_write(&a.json, text.as_bytes())?;
@@ -162,42 +135,8 @@ pub enum MethodArg {
     Bezier,
 }
 
-/// `--set inbetween.*` values for the Bézier in-betweener.
-fn bezier_settings(sets: &[String]) -> anyhow::Result<qean_keyframes::bezier::BezierSettings> {
-    use qean_keyframes::bezier::{BezierAverage, BezierParam};
-    let mut s = qean_keyframes::bezier::BezierSettings::default();
-    for spec in sets {
-        let (parts, value) = qean_config::run::parse_override(spec).map_err(anyhow::Error::msg)?;
-        let [t, key] = parts.as_slice() else { continue };
-        if t != "inbetween" {
-            continue;
-        }
-        let bad = |e: toml::de::Error| {
-            anyhow::anyhow!(
-                "--set {spec}: {}",
-                e.to_string().lines().next().unwrap_or("").trim()
-            )
-        };
-        match key.as_str() {
-            "bezier_param" => s.param = BezierParam::deserialize(value).map_err(bad)?,
-            "bezier_average" => s.average = BezierAverage::deserialize(value).map_err(bad)?,
-            other => anyhow::bail!("--set {spec}: unknown [inbetween] setting {other:?} (bezier_param, bezier_average)"),
-        }
-    }
-    Ok(s)
-}
-
 pub fn edit(a: EditArgs) -> anyhow::Result<()> {
-    let keyframe_sets: Vec<String> = a
-        .set
-        .iter()
-        .filter(|s| !s.trim_start().starts_with("inbetween."))
-        .cloned()
-        .collect();
-    let mut bezier = bezier_settings(&a.set)?;
-    let options = keyframe_options(&keyframe_sets)?;
-    bezier.order = options.euler_order;
-    bezier.unwrap = options.euler_unwrap;
+    let settings = qean::keyframe_settings::parse(&a.set)?;
     let report = qean_pipeline::edit::edit(&qean_pipeline::edit::EditRequest {
         motion: a.motion.clone(),
         music: a.music.clone(),
@@ -208,8 +147,8 @@ pub fn edit(a: EditArgs) -> anyhow::Result<()> {
             MethodArg::Bezier => qean_pipeline::edit::EditMethod::Bezier,
         },
         bpm: a.bpm,
-        options,
-        bezier,
+        options: settings.keyframes,
+        bezier: settings.bezier,
         out: a.out.clone(),
         render: a.render,
     })?;
