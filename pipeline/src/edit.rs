@@ -132,6 +132,41 @@ fn own_theta(
     )
 }
 
+/// The fastest joint's largest step between frames (m per frame) in frames [a, b].
+fn peak_step(joints: &[[f64; 3]], a: usize, b: usize) -> f64 {
+    let mut worst: f64 = 0.0;
+    for t in a.max(1)..=b {
+        for j in 0..24 {
+            let (p, q) = (joints[t * 24 + j], joints[(t - 1) * 24 + j]);
+            worst = worst.max(
+                ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt(),
+            );
+        }
+    }
+    worst
+}
+
+/// Bézier curves run per Euler channel; near gimbal lock (in XYZ order: a quarter turn of the body about
+/// the vertical axis) a channel swings fast and a cubic through it flails. Say so when a regenerated
+/// range moves much faster than the input ever does.
+fn warn_if_faster(input: &Motion, out: &Motion, ranges: &[(usize, usize)], edits: &Path) {
+    let (ji, jo) = (input.joints(FkRoot::Smpl), out.joints(FkRoot::Smpl));
+    let reference = peak_step(&ji, 0, input.frames - 1);
+    for &(a, b) in ranges {
+        let peak = peak_step(&jo, a, b);
+        if peak > 3.0 * reference {
+            tracing::warn!(
+                "{}: range [{a}, {b}] moves up to {:.2} m per frame, {:.1}× the input's fastest: Bézier curves in \
+                 Euler angles flail near gimbal lock; try --set keyframes.euler_order=YXZ (turns about the \
+                 vertical axis stay away from it) or --method slerp",
+                edits.display(),
+                peak,
+                peak / reference.max(1e-12)
+            );
+        }
+    }
+}
+
 /// Run an edit; returns the report (already written beside the output).
 pub fn edit(req: &EditRequest) -> Result<EditReport> {
     req.options
@@ -169,6 +204,9 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
         Some(t) => Method::Bezier(t, req.bezier),
     };
     let (out, ranges) = apply(&motion, &spec, &kept, &method);
+    if req.method == EditMethod::Bezier {
+        warn_if_faster(&motion, &out, &spec.regenerate, &req.edits);
+    }
     // The input's smpl_scaling is kept (SPEC §12.7 writes 1.0) so that untouched frames stay bit-identical
     // in smpl_trans too.
     let mut written = out;
