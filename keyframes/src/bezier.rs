@@ -86,7 +86,7 @@ pub fn fit_pair(x: &[f64], t1: usize, t2: usize, param: BezierParam) -> Option<[
         r2 += f2 * y;
     }
     let det = a11 * a22 - a12 * a12;
-    if !(det.abs() > 1e-12 * (a11 * a22).max(f64::MIN_POSITIVE)) {
+    if det.is_nan() || det.abs() <= 1e-12 * (a11 * a22).max(f64::MIN_POSITIVE) {
         return None;
     }
     Some([(a22 * r1 - a12 * r2) / det, (a11 * r2 - a12 * r1) / det])

@@ -125,9 +125,7 @@ pub fn select(e: &[f64], n: usize, count: usize, kind: DpCombine) -> (Vec<usize>
     }
     let mut s = vec![f64::INFINITY; count * n];
     let mut from = vec![usize::MAX; count * n];
-    for end in 1..n {
-        s[n + end] = e[end];
-    }
+    s[n + 1..2 * n].copy_from_slice(&e[1..n]);
     for m in 3..=count {
         let row = m - 1;
         for end in m - 1..n {

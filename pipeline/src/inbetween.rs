@@ -159,6 +159,81 @@ fn joints_sequence(name: &str, m: &Motion, root: FkRoot) -> Sequence {
     Sequence::new(name.to_string(), frames_of(m.joints(root)))
 }
 
+/// The mean Bézier θ of the training split's key pairs under one strategy and N.
+fn train_mean(
+    ds: &Dataset,
+    req: &InbetweenRequest,
+    train: &Loaded,
+    strategy: Strategy,
+    n: usize,
+) -> Result<MeanTheta> {
+    let mut m = MeanTheta::default();
+    for (name, motion) in train.names.iter().zip(&train.motions) {
+        let keys = keys_of(ds, req, name, motion, strategy, n)?;
+        m.add(motion, &keys, &req.bezier);
+    }
+    Ok(m)
+}
+
+/// One cell of the table to compute.
+struct Cell<'a> {
+    strategy: Strategy,
+    method: IbMethod,
+    n: usize,
+    mean: Option<&'a MeanTheta>,
+}
+
+/// Rebuild every test dance for one cell and score the set (the row's `seconds` is left 0).
+fn score(
+    ds: &Dataset,
+    req: &InbetweenRequest,
+    test: &Loaded,
+    reference: &[Sequence],
+    lookup: qean_eval::protocol::BeatLookup,
+    cell: &Cell,
+) -> Result<(Row, qean_eval::report::MetricsReport)> {
+    let mut generated = Vec::new();
+    let (mut total_mse, mut total_keys) = (0.0, 0usize);
+    for (name, motion) in test.names.iter().zip(&test.motions) {
+        let keys = keys_of(ds, req, name, motion, cell.strategy, cell.n)?;
+        total_keys += keys.len();
+        let rebuilt = match (cell.method, cell.mean) {
+            (IbMethod::Linear, _) => slerp::inbetween(motion, &keys),
+            (IbMethod::Bezier, Some(m)) => {
+                bezier::inbetween(motion, &keys, ThetaSource::Mean(m), &req.bezier)
+            }
+            (IbMethod::BezierFit, _) | (IbMethod::Bezier, None) => {
+                bezier::inbetween(motion, &keys, ThetaSource::FitEach, &req.bezier)
+            }
+        };
+        total_mse += mse(motion, &rebuilt, req.mse_space);
+        generated.push(joints_sequence(name, &rebuilt, req.root));
+    }
+    let cfg = EvalConfig {
+        seed_frames: 0,
+        ..EvalConfig::default()
+    };
+    let report =
+        tracing::subscriber::with_default(tracing::subscriber::NoSubscriber::default(), || {
+            qean_eval::protocol::evaluate(&generated, reference, Some(lookup), &cfg)
+        })?;
+    let count = test.names.len() as f64;
+    let row = Row {
+        strategy: cell.strategy,
+        method: cell.method,
+        n: cell.n,
+        mse: total_mse / count,
+        fid_k: report.fid_k,
+        fid_g: report.fid_g,
+        dist_k: report.div_k,
+        dist_g: report.div_g,
+        beat_align: report.beat_align,
+        keyframes: total_keys as f64 / count,
+        seconds: 0.0,
+    };
+    Ok((row, report))
+}
+
 /// Run the benchmark; returns the report and its markdown (both also written to `req.out`).
 pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
     let start = Instant::now();
@@ -203,10 +278,6 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
             .cloned()
             .ok_or_else(|| qean_eval::Error::file(&wav, format!("no audio for music ID '{id}'")))
     };
-    let cfg = EvalConfig {
-        seed_frames: 0,
-        ..EvalConfig::default()
-    };
     let mut rows = Vec::new();
     let mut gt = None;
     let mut means: HashMap<(Strategy, usize), MeanTheta> = HashMap::new();
@@ -215,53 +286,25 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
             let t0 = Instant::now();
             let mean = if method == IbMethod::Bezier {
                 let train = train.as_ref().expect("loaded when a row needs it");
-                if !means.contains_key(&(strategy, n)) {
-                    let mut m = MeanTheta::default();
-                    for (name, motion) in train.names.iter().zip(&train.motions) {
-                        let keys = keys_of(&ds, req, name, motion, strategy, n)?;
-                        m.add(motion, &keys, &req.bezier);
-                    }
-                    means.insert((strategy, n), m);
+                if let std::collections::hash_map::Entry::Vacant(slot) = means.entry((strategy, n))
+                {
+                    slot.insert(train_mean(&ds, req, train, strategy, n)?);
                 }
                 means.get(&(strategy, n))
             } else {
                 None
             };
-            let mut generated = Vec::new();
-            let (mut total_mse, mut total_keys) = (0.0, 0usize);
-            for (name, motion) in test.names.iter().zip(&test.motions) {
-                let keys = keys_of(&ds, req, name, motion, strategy, n)?;
-                total_keys += keys.len();
-                let rebuilt = match (method, mean) {
-                    (IbMethod::Linear, _) => slerp::inbetween(motion, &keys),
-                    (IbMethod::Bezier, Some(m)) => {
-                        bezier::inbetween(motion, &keys, ThetaSource::Mean(m), &req.bezier)
-                    }
-                    (IbMethod::BezierFit, _) | (IbMethod::Bezier, None) => {
-                        bezier::inbetween(motion, &keys, ThetaSource::FitEach, &req.bezier)
-                    }
-                };
-                total_mse += mse(motion, &rebuilt, req.mse_space);
-                generated.push(joints_sequence(name, &rebuilt, req.root));
-            }
-            let report = tracing::subscriber::with_default(
-                tracing::subscriber::NoSubscriber::default(),
-                || qean_eval::protocol::evaluate(&generated, &reference, Some(&lookup), &cfg),
-            )?;
-            gt.get_or_insert((report.gt_div_k, report.gt_div_g, report.gt_beat_align));
-            let count = test.names.len() as f64;
-            rows.push(Row {
+            let cell = Cell {
                 strategy,
                 method,
                 n,
-                mse: total_mse / count,
-                fid_k: report.fid_k,
-                fid_g: report.fid_g,
-                dist_k: report.div_k,
-                dist_g: report.div_g,
-                beat_align: report.beat_align,
-                keyframes: total_keys as f64 / count,
+                mean,
+            };
+            let (row, report) = score(&ds, req, &test, &reference, &lookup, &cell)?;
+            gt.get_or_insert((report.gt_div_k, report.gt_div_g, report.gt_beat_align));
+            rows.push(Row {
                 seconds: t0.elapsed().as_secs_f64(),
+                ..row
             });
             tracing::info!("{} / {} at {n} keys: done", strategy.name(), method.label());
         }
@@ -287,6 +330,9 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
     Ok((report, md))
 }
 
+/// A named column of a row.
+type Metric = (&'static str, fn(&Row) -> f64);
+
 /// Lin's expectations (§12.6): (i) every metric falls as N grows for even, dp and onset keys; (ii) DP keys
 /// with Bézier fitted per sequence have the lowest MSE.
 pub fn checks(rows: &[Row]) -> Vec<String> {
@@ -308,7 +354,7 @@ pub fn checks(rows: &[Row]) -> Vec<String> {
         if cells.len() < 2 {
             continue;
         }
-        let metrics: [(&str, fn(&Row) -> f64); 3] = [
+        let metrics: [Metric; 3] = [
             ("MSE", |r| r.mse),
             ("FID_g", |r| r.fid_g),
             ("FID_k", |r| r.fid_k),

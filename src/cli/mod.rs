@@ -41,7 +41,7 @@ pub enum Command {
     Sweep(train_cmds::SweepArgs),
     Export(train_cmds::ExportArgs),
     Sample(sample_cmd::SampleArgs),
-    Eval(qean::eval_cli::Args),
+    Eval(Box<qean::eval_cli::Args>),
     Curves(qean::eval_cli::CurvesArgs),
     Demo(demo_cmd::DemoArgs),
     Bench(bench_cmd::BenchArgs),
