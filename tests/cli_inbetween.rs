@@ -111,3 +111,64 @@ fn bad_benchmark_requests_fail_cleanly() {
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn inspect_prints_the_in_betweeners_parameter_counts() {
+    let want = [
+        ("motion", "30,485,313", "111,009"),
+        ("genre", "30,492,513", "111,585"),
+        ("cross_full", "70,877,601", "227,553"),
+        ("cross_drum", "70,877,601", "227,553"),
+        ("merged_full", "61,268,001", "198,497"),
+        ("merged_drum", "61,268,001", "198,497"),
+    ];
+    for (variant, paper, tiny) in want {
+        for (size, count) in [("paper", paper), ("tiny", tiny)] {
+            let path = configs().join(format!("inbetween/{size}_{variant}.toml"));
+            let out = run_ok(qean().arg("inspect").arg(&path));
+            assert!(
+                out.contains(&format!("parameter count: {count}\n")),
+                "{size} {variant}: {out}"
+            );
+            assert!(
+                out.contains(&format!("closed form (§12.4c): {count}")),
+                "{out}"
+            );
+        }
+    }
+    // Training them is not built yet: one clear line, nothing written.
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let mut c = qean();
+    c.args(["train", "--config"])
+        .arg(configs().join("inbetween/tiny_motion.toml"))
+        .arg("--data")
+        .arg(dir.path())
+        .arg("--run-dir")
+        .arg(&run);
+    assert_clean_failure(&mut c, "not built yet");
+    assert!(!run.exists());
+    // The [inbetween] table is checked like any other.
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(
+        &bad,
+        "[model]\narch = \"inbetween\"\n[inbetween]\nheads = 7\nhidden = 64\n",
+    )
+    .unwrap();
+    assert_clean_failure(qean().arg("inspect").arg(&bad), "must divide");
+    std::fs::write(&bad, "[inbetween]\nvariant = \"genre\"\n").unwrap();
+    let mut c = qean();
+    c.args(["train", "--config"])
+        .arg(&bad)
+        .arg("--data")
+        .arg(dir.path())
+        .arg("--run-dir")
+        .arg(&run);
+    assert_clean_failure(&mut c, "[inbetween] table is for");
+    std::fs::write(
+        &bad,
+        "[model]\narch = \"inbetween\"\n[inbetween]\nvariant = \"tango\"\n",
+    )
+    .unwrap();
+    assert_clean_failure(qean().arg("inspect").arg(&bad), "tango");
+}

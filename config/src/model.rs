@@ -29,6 +29,9 @@ pub enum Arch {
     Qean,
     /// TSMT (SPEC §11): its sizes and options are the `[tsmt]` table; the rest of `[model]` is unused.
     Tsmt,
+    /// Lin's transformer in-betweeners (SPEC §12.4c): the `[inbetween]` table; the rest of `[model]` is
+    /// unused.
+    Inbetween,
 }
 
 /// Attention score scale `s` (SPEC §4.1).

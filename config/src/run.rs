@@ -13,6 +13,7 @@ use qean_aistpp::windows::WindowSpec;
 use qean_motion::motion::Layout;
 use serde::{Deserialize, Serialize};
 
+use crate::inbetween::InbetweenConfig;
 use crate::recipe::RecipeConfig;
 use crate::schedule::ScheduleConfig;
 use crate::tsmt::TsmtConfig;
@@ -135,6 +136,9 @@ pub struct RunConfig {
     /// Li et al.'s two-stream motion transformer (`model.arch = "tsmt"` only; written only then).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tsmt: Option<TsmtConfig>,
+    /// Lin's transformer in-betweeners (`model.arch = "inbetween"` only; written only then).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inbetween: Option<InbetweenConfig>,
 }
 
 /// What one file of an `extends` chain may hold (every table optional and partial).
@@ -150,6 +154,7 @@ struct RunFile {
     train: Option<TrainConfig>,
     recipe: Option<RecipeConfig>,
     tsmt: Option<TsmtConfig>,
+    inbetween: Option<InbetweenConfig>,
 }
 
 fn check_file(path: &Path, text: &str) -> Result<(), ConfigError> {
@@ -248,6 +253,9 @@ impl RunConfig {
         if config.is_tsmt() && config.tsmt.is_none() {
             config.tsmt = Some(TsmtConfig::default());
         }
+        if config.is_inbetween() && config.inbetween.is_none() {
+            config.inbetween = Some(InbetweenConfig::default());
+        }
         config
             .validate()
             .map_err(|m| ConfigError::new(path, None, m))?;
@@ -263,6 +271,20 @@ impl RunConfig {
             (Some(_), false) => {
                 return Err(format!(
                     "a [tsmt] table is for model.arch = \"tsmt\", not {:?}",
+                    self.model.arch
+                )
+                .to_lowercase())
+            }
+            (None, false) => {}
+        }
+        match (&self.inbetween, self.is_inbetween()) {
+            (Some(i), true) => i.validate()?,
+            (None, true) => {
+                return Err("model.arch = \"inbetween\" needs an [inbetween] table".into())
+            }
+            (Some(_), false) => {
+                return Err(format!(
+                    "an [inbetween] table is for model.arch = \"inbetween\", not {:?}",
                     self.model.arch
                 )
                 .to_lowercase())
@@ -317,6 +339,16 @@ impl RunConfig {
     /// Whether the run is Li et al.'s two-stream motion transformer (`model.arch = "tsmt"`).
     pub fn is_tsmt(&self) -> bool {
         self.model.arch == crate::model::Arch::Tsmt
+    }
+
+    /// Whether the run is one of Lin's transformer in-betweeners (`model.arch = "inbetween"`).
+    pub fn is_inbetween(&self) -> bool {
+        self.model.arch == crate::model::Arch::Inbetween
+    }
+
+    /// The `[inbetween]` table of an in-betweener run (the paper preset for any other run).
+    pub fn inbetween(&self) -> InbetweenConfig {
+        self.inbetween.clone().unwrap_or_default()
     }
 
     /// The `[tsmt]` table of a TSMT run (the paper preset for any other: callers check `is_tsmt`).

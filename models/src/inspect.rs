@@ -46,6 +46,16 @@ pub fn inspect(path: &Path) -> Result<Inspection, ConfigError> {
             summary: tsmt_summary(&tsmt, &model, Some(path)),
         });
     }
+    if config.arch == Arch::Inbetween {
+        let ib = RunConfig::load(path, &[])?.inbetween();
+        let params = crate::inbetween::Inbetweener::new(&ib, &Device::flex()).num_params();
+        return Ok(Inspection {
+            path: path.to_path_buf(),
+            config,
+            params,
+            summary: inbetween_summary(&ib, params, Some(path)),
+        });
+    }
     let model = DanceModel::new(&config, &Device::flex());
     let params = model.num_params();
     let summary = summary(&config, &model, Some(path));
@@ -150,6 +160,7 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
         Arch::Fact => "FACT (mint)",
         Arch::Qean => "QEAN",
         Arch::Tsmt => "TSMT (configured by [tsmt])",
+        Arch::Inbetween => "in-betweener (configured by [inbetween])",
     };
     let from = path
         .map(|p| format!(" from {}", p.display()))
@@ -228,6 +239,67 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
     for (name, n) in parts.into_iter().filter(|(_, n)| *n > 0) {
         let _ = writeln!(s, "  {name:<28} {:>13}", group_digits(n));
     }
+    s
+}
+
+/// What `qean inspect` prints for an in-betweener config (SPEC §12.4c).
+pub fn inbetween_summary(
+    c: &qean_config::inbetween::InbetweenConfig,
+    params: usize,
+    path: Option<&Path>,
+) -> String {
+    use qean_config::inbetween::Variant;
+    let from = path
+        .map(|p| format!(" from {}", p.display()))
+        .unwrap_or_default();
+    let mut s = format!(
+        "model: in-betweener {} (Lin 2022, §3.5.3){from}\n",
+        c.variant.name()
+    );
+    let input = match c.variant {
+        Variant::Motion => "B [T, 225]".to_string(),
+        Variant::Genre => "[B | genre one-hot] [T, 234]".to_string(),
+        Variant::MergedFull | Variant::MergedDrum => {
+            format!("[B | music encoding] [T, {}]", 225 + c.hidden)
+        }
+        Variant::CrossFull | Variant::CrossDrum => "B [T, 225]".to_string(),
+    };
+    if c.variant.has_audio() {
+        let _ =
+            writeln!(
+            s,
+            "  music  {} feature [T, 22] → Dense(22 → {}) + positions [{}, {}] → {} pre-LN layers",
+            if c.variant.drums() { "drums-stem" } else { "full-mix" },
+            c.hidden,
+            c.max_len,
+            c.hidden,
+            c.audio_layers
+        );
+    }
+    let stack = if c.variant.is_cross() {
+        format!(
+            "{} decoder layers ({:?}: cross-attention to the music)",
+            c.layers, c.decoder
+        )
+    } else {
+        format!("{} self-attention layers", c.layers)
+    };
+    let _ = writeln!(
+        s,
+        "  motion {input} → Dense → {} + positions [{}, {}] → {stack} (heads {}, FFN {}, dropout {}, scale {:?})",
+        c.hidden, c.max_len, c.hidden, c.heads, c.ffn, c.dropout, c.scale
+    );
+    let _ = writeln!(
+        s,
+        "  output Dense({} → 225) + B ({:?} base over {} keys per measure)",
+        c.hidden, c.base, c.train_keys
+    );
+    let _ = writeln!(
+        s,
+        "  closed form (§12.4c): {}",
+        group_digits(crate::inbetween::inbetween_params(c))
+    );
+    let _ = params;
     s
 }
 

@@ -18,6 +18,7 @@ pub mod cross_prefix;
 pub mod error;
 pub mod fact;
 pub mod feed_forward;
+pub mod inbetween;
 pub mod init;
 pub mod input_fusion;
 pub mod inspect;

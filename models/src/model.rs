@@ -42,6 +42,9 @@ impl DanceModel {
             Arch::Tsmt => panic!(
                 "DanceModel::new: a TSMT run is built by qean_models::tsmt::Tsmt from its [tsmt] table"
             ),
+            Arch::Inbetween => panic!(
+                "DanceModel::new: an in-betweener is built by qean_models::inbetween::Inbetweener from its [inbetween] table"
+            ),
         }
     }
 

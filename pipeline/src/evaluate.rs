@@ -503,6 +503,7 @@ fn label(config: &qean_config::RunConfig, step: u64) -> String {
     match m.arch {
         qean_config::model::Arch::Fact => format!("FACT step {step}"),
         qean_config::model::Arch::Tsmt => format!("TSMT step {step}"),
+        qean_config::model::Arch::Inbetween => format!("in-betweener step {step}"),
         qean_config::model::Arch::Qean => format!(
             "QEAN ({:?} positions, {:?} attention) step {step}",
             m.position, m.attention

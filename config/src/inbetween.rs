@@ -1,0 +1,196 @@
+//! `[inbetween]`: the transformer in-betweeners of Lin's thesis (SPEC §12.4c). Every [DECISION] of §12.4c is
+//! a key here (`--set inbetween.variant=genre`). Defaults are the `ib_paper` sizes of the `motion` variant.
+
+use serde::{Deserialize, Serialize};
+
+/// Which in-betweener (Lin's D_* labels).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Variant {
+    /// D_motion: the interpolated keyframes alone.
+    #[default]
+    Motion,
+    /// D_genre: keyframes + a one-hot of the nine genres.
+    Genre,
+    /// D_cross_full: a decoder on the keyframes cross-attending to an encoder of the 22-D music feature.
+    CrossFull,
+    /// D_cross_drum: the same on the drums stem's feature.
+    CrossDrum,
+    /// D_merged_full: each frame's keyframe vector merged with its encoded music, then self-attention.
+    MergedFull,
+    /// D_merged_drum: the same on the drums stem.
+    MergedDrum,
+}
+
+impl Variant {
+    pub const ALL: [Variant; 6] = [
+        Variant::Motion,
+        Variant::Genre,
+        Variant::CrossFull,
+        Variant::CrossDrum,
+        Variant::MergedFull,
+        Variant::MergedDrum,
+    ];
+
+    /// Whether the variant reads music.
+    pub fn has_audio(self) -> bool {
+        !matches!(self, Variant::Motion | Variant::Genre)
+    }
+
+    /// Whether it is a decoder with cross-attention.
+    pub fn is_cross(self) -> bool {
+        matches!(self, Variant::CrossFull | Variant::CrossDrum)
+    }
+
+    /// Whether its music comes from the drums stem.
+    pub fn drums(self) -> bool {
+        matches!(self, Variant::CrossDrum | Variant::MergedDrum)
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::Motion => "motion",
+            Variant::Genre => "genre",
+            Variant::CrossFull => "cross_full",
+            Variant::CrossDrum => "cross_drum",
+            Variant::MergedFull => "merged_full",
+            Variant::MergedDrum => "merged_drum",
+        }
+    }
+}
+
+/// The decoder layer of the cross variants.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Decoder {
+    /// Self-attention, cross-attention, MLP.
+    #[default]
+    Standard,
+    /// Cross-attention and MLP only (Lin §2.3.4's description).
+    CrossOnly,
+}
+
+/// The interpolated base B the network corrects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Base {
+    /// Linear root + SLERP joints (§12.4a), in the 225-D layout.
+    #[default]
+    Slerp,
+    /// Element-wise lerp of the 225-D vectors.
+    ElementwiseLerp,
+}
+
+/// Attention score scale.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IbScale {
+    /// 1/√d_head.
+    #[default]
+    Head,
+    /// 1/√d (mint's FACT quirk).
+    Hidden,
+}
+
+/// The `[inbetween]` table.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct InbetweenConfig {
+    pub variant: Variant,
+    /// Model width d (800).
+    pub hidden: usize,
+    /// Heads (10).
+    pub heads: usize,
+    /// MLP inner width (3072).
+    pub ffn: usize,
+    /// Layers of the self-attention stack or decoder (4).
+    pub layers: usize,
+    /// Layers of the music encoder (4).
+    pub audio_layers: usize,
+    /// Dropout (0.1) on attention probabilities and branch outputs.
+    pub dropout: f64,
+    /// Rows of each learned position table (240 ≥ the longest measure, 181 frames at 80 BPM).
+    pub max_len: usize,
+    pub scale: IbScale,
+    pub decoder: Decoder,
+    pub base: Base,
+    /// Keyframes per measure in training (even keys, §12.3a).
+    pub train_keys: usize,
+    /// Draw N from {3, 5, 9} per window instead of `train_keys` (for edits with other key counts).
+    pub mixed_keys: bool,
+}
+
+impl Default for InbetweenConfig {
+    fn default() -> Self {
+        Self::paper()
+    }
+}
+
+impl InbetweenConfig {
+    /// `ib_paper` (Lin App. A): d 800, 10 heads, FFN 3072, 4 layers (+4 in the music encoder), dropout 0.1.
+    pub fn paper() -> Self {
+        InbetweenConfig {
+            variant: Variant::Motion,
+            hidden: 800,
+            heads: 10,
+            ffn: 3072,
+            layers: 4,
+            audio_layers: 4,
+            dropout: 0.1,
+            max_len: 240,
+            scale: IbScale::Head,
+            decoder: Decoder::Standard,
+            base: Base::Slerp,
+            train_keys: 5,
+            mixed_keys: false,
+        }
+    }
+
+    /// `ib_tiny` (CPU): d 64, 4 heads, FFN 128, 2 layers (+2).
+    pub fn tiny() -> Self {
+        InbetweenConfig {
+            hidden: 64,
+            heads: 4,
+            ffn: 128,
+            layers: 2,
+            audio_layers: 2,
+            ..Self::paper()
+        }
+    }
+
+    /// Values the types allow but the model cannot use, as `inbetween.<key>` messages.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("hidden", self.hidden),
+            ("heads", self.heads),
+            ("ffn", self.ffn),
+            ("layers", self.layers),
+            ("max_len", self.max_len),
+        ];
+        if let Some((k, _)) = positive.iter().find(|(_, v)| *v == 0) {
+            return Err(format!("inbetween.{k} must be at least 1"));
+        }
+        if !self.hidden.is_multiple_of(self.heads) {
+            return Err(format!(
+                "inbetween.heads ({}) must divide inbetween.hidden ({})",
+                self.heads, self.hidden
+            ));
+        }
+        if self.variant.has_audio() && self.audio_layers == 0 {
+            return Err(format!(
+                "inbetween.audio_layers must be at least 1 for variant {}",
+                self.variant.name()
+            ));
+        }
+        if !(0.0..1.0).contains(&self.dropout) {
+            return Err(format!(
+                "inbetween.dropout must be in [0, 1), got {}",
+                self.dropout
+            ));
+        }
+        if self.train_keys < 2 {
+            return Err("inbetween.train_keys must be at least 2".into());
+        }
+        Ok(())
+    }
+}

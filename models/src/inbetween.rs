@@ -1,0 +1,494 @@
+//! Lin's transformer in-betweeners (SPEC §12.4c, thesis §3.5.3 and App. A). Each variant predicts the
+//! residual over the interpolated keyframes: Ŷ = B + f(·), with B the SLERP base in the 225-D layout.
+//!
+//! - `motion`: Dense(225 → d) + positions, a self-attention stack, Dense(d → 225).
+//! - `genre`: the same on [B_t | one-hot genre] (234-D).
+//! - `cross_*`: a music encoder (Dense(22 → d) + positions + layers) as memory; a decoder on B whose layers
+//!   self-attend, cross-attend to the memory and run the MLP.
+//! - `merged_*`: the music encoder, then Dense([B_t | enc_t] (225 + d) → d) + positions, self-attention.
+//!
+//! Layers are §4.1 pre-LN (tanh-GELU MLP, fused bias-free q/k/v, output projection with bias, LayerNorm
+//! ε 1e-5); scores 1/√d_head (or 1/√d); dropout on the probabilities and the branch outputs; a key-padding
+//! bias (0 or −1e9) is the only mask, so batches may hold segments of unequal length.
+
+use burn::module::{Module, Param};
+use burn::nn::{Dropout, DropoutConfig, LayerNorm, LayerNormConfig, Linear};
+use burn::tensor::activation::softmax;
+use burn::tensor::{Device, Tensor, TensorData};
+
+use crate::attention::{merge_heads, split_heads};
+use crate::feed_forward::{FeedForward, FeedForwardConfig};
+use crate::init::{glorot_dense, truncated_normal};
+use qean_config::inbetween::{Decoder, IbScale, InbetweenConfig, Variant};
+
+/// Motion vector width (the 225-D layout of §1.4).
+pub const MOTION_DIM: usize = 225;
+/// Music feature width: MFCC 1..20, envelope, onset peaks (columns [1..20, 0, 33] of the 35-D feature).
+pub const MUSIC_DIM: usize = 22;
+/// Genres without Ballet Jazz, in §1.1 order BR, PO, LO, MH, LH, HO, WA, KR, JS.
+pub const GENRES: [&str; 9] = ["BR", "PO", "LO", "MH", "LH", "HO", "WA", "KR", "JS"];
+
+/// The one-hot index of a genre code (`None` for JB and unknown codes).
+pub fn genre_index(code: &str) -> Option<usize> {
+    GENRES.iter().position(|g| *g == code)
+}
+
+/// The 22 music columns of a 35-D feature row: MFCC 1..20 (columns 1..=20), envelope (0), onset peaks (33).
+pub fn music_columns(row: &[f32]) -> [f32; MUSIC_DIM] {
+    let mut out = [0.0; MUSIC_DIM];
+    out[..20].copy_from_slice(&row[1..21]);
+    out[20] = row[0];
+    out[21] = row[33];
+    out
+}
+
+/// softmax(q·kᵀ·s + bias)·v per head; `bias` [B, 1, 1, M] masks padded keys.
+fn attend(
+    q: Tensor<4>,
+    k: Tensor<4>,
+    v: Tensor<4>,
+    bias: Option<Tensor<4>>,
+    scale: f64,
+    dropout: &Dropout,
+) -> Tensor<4> {
+    let mut scores = q.mul_scalar(scale).matmul(k.swap_dims(2, 3));
+    if let Some(b) = bias {
+        scores = scores + b;
+    }
+    dropout.forward(softmax(scores, 3)).matmul(v)
+}
+
+fn score_scale(scale: IbScale, hidden: usize, heads: usize) -> f64 {
+    match scale {
+        IbScale::Head => 1.0 / ((hidden / heads) as f64).sqrt(),
+        IbScale::Hidden => 1.0 / (hidden as f64).sqrt(),
+    }
+}
+
+/// Self-attention with a fused bias-free q/k/v projection.
+#[derive(Module, Debug)]
+pub struct SelfAttention {
+    /// Dense(d → 3d), no bias.
+    pub qkv: Linear,
+    /// Dense(d → d) with bias.
+    pub output: Linear,
+    pub dropout: Dropout,
+    heads: usize,
+    scale: f64,
+}
+
+impl SelfAttention {
+    fn new(c: &InbetweenConfig, device: &Device) -> Self {
+        SelfAttention {
+            qkv: glorot_dense(c.hidden, 3 * c.hidden, false, device),
+            output: glorot_dense(c.hidden, c.hidden, true, device),
+            dropout: DropoutConfig::new(c.dropout).init(),
+            heads: c.heads,
+            scale: score_scale(c.scale, c.hidden, c.heads),
+        }
+    }
+
+    fn forward(&self, x: Tensor<3>, bias: Option<Tensor<4>>) -> Tensor<3> {
+        let [_, _, d] = x.dims();
+        let qkv = self.qkv.forward(x);
+        let q = split_heads(qkv.clone().narrow(2, 0, d), self.heads);
+        let k = split_heads(qkv.clone().narrow(2, d, d), self.heads);
+        let v = split_heads(qkv.narrow(2, 2 * d, d), self.heads);
+        self.output.forward(merge_heads(attend(
+            q,
+            k,
+            v,
+            bias,
+            self.scale,
+            &self.dropout,
+        )))
+    }
+}
+
+/// Cross-attention: separate bias-free W_q (d × d) and W_kv (d × 2d); no LayerNorm on the memory.
+#[derive(Module, Debug)]
+pub struct CrossAttention {
+    pub query: Linear,
+    pub key_value: Linear,
+    pub output: Linear,
+    pub dropout: Dropout,
+    heads: usize,
+    scale: f64,
+}
+
+impl CrossAttention {
+    fn new(c: &InbetweenConfig, device: &Device) -> Self {
+        CrossAttention {
+            query: glorot_dense(c.hidden, c.hidden, false, device),
+            key_value: glorot_dense(c.hidden, 2 * c.hidden, false, device),
+            output: glorot_dense(c.hidden, c.hidden, true, device),
+            dropout: DropoutConfig::new(c.dropout).init(),
+            heads: c.heads,
+            scale: score_scale(c.scale, c.hidden, c.heads),
+        }
+    }
+
+    fn forward(&self, x: Tensor<3>, memory: Tensor<3>, bias: Option<Tensor<4>>) -> Tensor<3> {
+        let [_, _, d] = x.dims();
+        let q = split_heads(self.query.forward(x), self.heads);
+        let kv = self.key_value.forward(memory);
+        let k = split_heads(kv.clone().narrow(2, 0, d), self.heads);
+        let v = split_heads(kv.narrow(2, d, d), self.heads);
+        self.output.forward(merge_heads(attend(
+            q,
+            k,
+            v,
+            bias,
+            self.scale,
+            &self.dropout,
+        )))
+    }
+}
+
+/// One pre-LN layer: [self-attention] [cross-attention] MLP, each as x += Dropout(branch(LN(x))).
+#[derive(Module, Debug)]
+pub struct Layer {
+    pub attention_norm: Option<LayerNorm>,
+    pub attention: Option<SelfAttention>,
+    pub cross_norm: Option<LayerNorm>,
+    pub cross: Option<CrossAttention>,
+    pub mlp_norm: LayerNorm,
+    pub mlp: FeedForward,
+    pub dropout: Dropout,
+}
+
+fn layer_norm(d: usize, device: &Device) -> LayerNorm {
+    LayerNormConfig::new(d).with_epsilon(1e-5).init(device)
+}
+
+impl Layer {
+    fn new(c: &InbetweenConfig, self_attention: bool, cross: bool, device: &Device) -> Self {
+        Layer {
+            attention_norm: self_attention.then(|| layer_norm(c.hidden, device)),
+            attention: self_attention.then(|| SelfAttention::new(c, device)),
+            cross_norm: cross.then(|| layer_norm(c.hidden, device)),
+            cross: cross.then(|| CrossAttention::new(c, device)),
+            mlp_norm: layer_norm(c.hidden, device),
+            mlp: FeedForwardConfig::new(c.hidden, c.ffn).init(device),
+            dropout: DropoutConfig::new(c.dropout).init(),
+        }
+    }
+
+    fn forward(
+        &self,
+        mut x: Tensor<3>,
+        bias: Option<Tensor<4>>,
+        memory: Option<(Tensor<3>, Option<Tensor<4>>)>,
+    ) -> Tensor<3> {
+        if let (Some(norm), Some(attn)) = (&self.attention_norm, &self.attention) {
+            x = x.clone() + self.dropout.forward(attn.forward(norm.forward(x), bias));
+        }
+        if let (Some(norm), Some(cross), Some((m, mbias))) = (&self.cross_norm, &self.cross, memory)
+        {
+            x = x.clone()
+                + self
+                    .dropout
+                    .forward(cross.forward(norm.forward(x), m, mbias));
+        }
+        x.clone()
+            + self
+                .dropout
+                .forward(self.mlp.forward(self.mlp_norm.forward(x)))
+    }
+}
+
+/// The music encoder of the cross and merged variants.
+#[derive(Module, Debug)]
+pub struct MusicEncoder {
+    /// Dense(22 → d).
+    pub input: Linear,
+    /// [max_len, d], truncated normal σ 0.02.
+    pub positions: Param<Tensor<2>>,
+    pub layers: Vec<Layer>,
+    pub dropout: Dropout,
+}
+
+impl MusicEncoder {
+    fn forward(&self, music: Tensor<3>, bias: Option<Tensor<4>>) -> Tensor<3> {
+        let n = music.dims()[1];
+        let mut x =
+            self.input.forward(music) + self.positions.val().narrow(0, 0, n).unsqueeze::<3>();
+        x = self.dropout.forward(x);
+        for layer in &self.layers {
+            x = layer.forward(x, bias.clone(), None);
+        }
+        x
+    }
+}
+
+/// What a forward pass reads besides the base.
+pub struct Conditioning {
+    /// [B, T, 22] music rows aligned with the frames (cross and merged variants).
+    pub music: Option<Tensor<3>>,
+    /// [B, 9] genre one-hots (genre variant).
+    pub genre: Option<Tensor<2>>,
+    /// Valid frames per row (the rest is padding); `None`: every frame is valid.
+    pub lengths: Option<Vec<usize>>,
+}
+
+/// One in-betweener.
+#[derive(Module, Debug)]
+pub struct Inbetweener {
+    /// Dense(225 | 234 | 225 + d → d).
+    pub motion_in: Linear,
+    /// [max_len, d] positions of the motion stream.
+    pub positions: Param<Tensor<2>>,
+    pub music: Option<MusicEncoder>,
+    /// The self-attention stack, or the decoder of the cross variants.
+    pub layers: Vec<Layer>,
+    /// Dense(d → 225).
+    pub output: Linear,
+    pub dropout: Dropout,
+    genre: bool,
+    merged: bool,
+    cross: bool,
+    max_len: usize,
+}
+
+impl Inbetweener {
+    /// Builds the variant `c.variant` (parameters initialise lazily from the device RNG).
+    pub fn new(c: &InbetweenConfig, device: &Device) -> Inbetweener {
+        let v = c.variant;
+        let merged = matches!(v, Variant::MergedFull | Variant::MergedDrum);
+        let input = match v {
+            Variant::Genre => MOTION_DIM + GENRES.len(),
+            _ if merged => MOTION_DIM + c.hidden,
+            _ => MOTION_DIM,
+        };
+        let music = v.has_audio().then(|| MusicEncoder {
+            input: glorot_dense(MUSIC_DIM, c.hidden, true, device),
+            positions: truncated_normal([c.max_len, c.hidden], 0.02, device),
+            layers: (0..c.audio_layers)
+                .map(|_| Layer::new(c, true, false, device))
+                .collect(),
+            dropout: DropoutConfig::new(c.dropout).init(),
+        });
+        let self_attention = !(v.is_cross() && c.decoder == Decoder::CrossOnly);
+        Inbetweener {
+            motion_in: glorot_dense(input, c.hidden, true, device),
+            positions: truncated_normal([c.max_len, c.hidden], 0.02, device),
+            music,
+            layers: (0..c.layers)
+                .map(|_| Layer::new(c, self_attention, v.is_cross(), device))
+                .collect(),
+            output: glorot_dense(c.hidden, MOTION_DIM, true, device),
+            dropout: DropoutConfig::new(c.dropout).init(),
+            genre: v == Variant::Genre,
+            merged,
+            cross: v.is_cross(),
+            max_len: c.max_len,
+        }
+    }
+
+    /// The longest segment the position tables cover.
+    pub fn max_len(&self) -> usize {
+        self.max_len
+    }
+
+    /// Ŷ = B + f(B, conditioning): base [B, T, 225] → [B, T, 225].
+    pub fn forward(&self, base: Tensor<3>, cond: &Conditioning) -> Tensor<3> {
+        let [b, t, _] = base.dims();
+        assert!(
+            t <= self.max_len,
+            "segment of {t} frames is longer than the position table ({})",
+            self.max_len
+        );
+        let device = base.device();
+        let bias = cond.lengths.as_ref().map(|lens| key_bias(lens, t, &device));
+        let memory = match (&self.music, &cond.music) {
+            (Some(enc), Some(m)) => Some(enc.forward(m.clone(), bias.clone())),
+            (Some(_), None) => panic!("this in-betweener needs music"),
+            _ => None,
+        };
+        let input = if self.genre {
+            let g = cond
+                .genre
+                .clone()
+                .expect("the genre in-betweener needs a genre");
+            let g = g.unsqueeze_dim::<3>(1).expand([b, t, GENRES.len()]);
+            Tensor::cat(vec![base.clone(), g], 2)
+        } else if self.merged {
+            Tensor::cat(vec![base.clone(), memory.clone().expect("music")], 2)
+        } else {
+            base.clone()
+        };
+        let mut x =
+            self.motion_in.forward(input) + self.positions.val().narrow(0, 0, t).unsqueeze::<3>();
+        x = self.dropout.forward(x);
+        for layer in &self.layers {
+            let mem = if self.cross {
+                memory.clone().map(|m| (m, bias.clone()))
+            } else {
+                None
+            };
+            x = layer.forward(x, bias.clone(), mem);
+        }
+        base + self.output.forward(x)
+    }
+}
+
+/// [B, 1, 1, T]: 0 for valid keys, −1e9 for padding.
+fn key_bias(lengths: &[usize], t: usize, device: &Device) -> Tensor<4> {
+    let values: Vec<f32> = lengths
+        .iter()
+        .flat_map(|&len| (0..t).map(move |i| if i < len { 0.0 } else { -1e9 }))
+        .collect();
+    Tensor::from_data(TensorData::new(values, [lengths.len(), 1, 1, t]), device)
+}
+
+/// Parameters by the closed forms of §12.4c: encoder layer 4d² + 2df + 6d + f, decoder layer + 4d² + 3d,
+/// Dense(a → b) = ab + b, positions max_len·d.
+pub fn inbetween_params(c: &InbetweenConfig) -> usize {
+    let (d, f) = (c.hidden, c.ffn);
+    let dense = |a: usize, b: usize| a * b + b;
+    let encoder = 4 * d * d + 2 * d * f + 6 * d + f;
+    let positions = c.max_len * d;
+    let v = c.variant;
+    let audio = if v.has_audio() {
+        dense(MUSIC_DIM, d) + positions + c.audio_layers * encoder
+    } else {
+        0
+    };
+    let input = match v {
+        Variant::Genre => dense(MOTION_DIM + GENRES.len(), d),
+        Variant::MergedFull | Variant::MergedDrum => dense(MOTION_DIM + d, d),
+        _ => dense(MOTION_DIM, d),
+    };
+    let layer = if v.is_cross() {
+        let cross = 4 * d * d + 3 * d;
+        if c.decoder == Decoder::CrossOnly {
+            encoder - (4 * d * d + 3 * d) + cross
+        } else {
+            encoder + cross
+        }
+    } else {
+        encoder
+    };
+    audio + input + positions + c.layers * layer + dense(d, MOTION_DIM)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use burn::tensor::Distribution;
+
+    fn count(c: &InbetweenConfig) -> usize {
+        Inbetweener::new(c, &Device::flex()).num_params()
+    }
+
+    #[test]
+    fn parameter_counts_equal_the_spec() {
+        let want = [
+            (Variant::Motion, 30_485_313, 111_009),
+            (Variant::Genre, 30_492_513, 111_585),
+            (Variant::CrossFull, 70_877_601, 227_553),
+            (Variant::CrossDrum, 70_877_601, 227_553),
+            (Variant::MergedFull, 61_268_001, 198_497),
+            (Variant::MergedDrum, 61_268_001, 198_497),
+        ];
+        for (variant, paper, tiny) in want {
+            let p = InbetweenConfig {
+                variant,
+                ..InbetweenConfig::paper()
+            };
+            let t = InbetweenConfig {
+                variant,
+                ..InbetweenConfig::tiny()
+            };
+            assert_eq!(count(&p), paper, "{variant:?} paper");
+            assert_eq!(count(&t), tiny, "{variant:?} tiny");
+            assert_eq!(inbetween_params(&p), paper);
+            assert_eq!(inbetween_params(&t), tiny);
+        }
+        let cross_only = InbetweenConfig {
+            variant: Variant::CrossFull,
+            decoder: Decoder::CrossOnly,
+            ..InbetweenConfig::tiny()
+        };
+        assert_eq!(count(&cross_only), inbetween_params(&cross_only));
+    }
+
+    fn inputs(variant: Variant, b: usize, t: usize, device: &Device) -> (Tensor<3>, Conditioning) {
+        let base = Tensor::<3>::random([b, t, MOTION_DIM], Distribution::Normal(0.0, 1.0), device);
+        let music = variant.has_audio().then(|| {
+            Tensor::<3>::random([b, t, MUSIC_DIM], Distribution::Normal(0.0, 1.0), device)
+        });
+        let genre = (variant == Variant::Genre).then(|| {
+            let mut g = vec![0f32; b * 9];
+            for i in 0..b {
+                g[i * 9 + (i % 9)] = 1.0;
+            }
+            Tensor::from_data(TensorData::new(g, [b, 9]), device)
+        });
+        (
+            base,
+            Conditioning {
+                music,
+                genre,
+                lengths: None,
+            },
+        )
+    }
+
+    #[test]
+    fn shapes_zero_output_and_padding() {
+        let device = Device::flex();
+        device.seed(3);
+        for variant in Variant::ALL {
+            let c = InbetweenConfig {
+                variant,
+                dropout: 0.0,
+                ..InbetweenConfig::tiny()
+            };
+            let mut model = Inbetweener::new(&c, &device);
+            let (base, cond) = inputs(variant, 2, 17, &device);
+            let y = model.forward(base.clone(), &cond);
+            assert_eq!(y.dims(), [2, 17, MOTION_DIM]);
+            // Padding: 3 more frames of anything, masked, leave the first 17 outputs unchanged.
+            let pad = |x: Tensor<3>| {
+                let [b, _, w] = x.dims();
+                Tensor::cat(
+                    vec![
+                        x,
+                        Tensor::<3>::random([b, 3, w], Distribution::Normal(0.0, 5.0), &device),
+                    ],
+                    1,
+                )
+            };
+            let padded = Conditioning {
+                music: cond.music.clone().map(pad),
+                genre: cond.genre.clone(),
+                lengths: Some(vec![17, 17]),
+            };
+            let yp = model.forward(pad(base.clone()), &padded).narrow(1, 0, 17);
+            let diff: f32 = (yp - y.clone()).abs().max().into_scalar();
+            assert!(
+                diff < 1e-4,
+                "{variant:?}: padding changed valid outputs by {diff}"
+            );
+            // Zeroed output layer: the base comes back.
+            model.output.weight = model.output.weight.map(|w| w.zeros_like());
+            model.output.bias = model.output.bias.map(|p| p.map(|b| b.zeros_like()));
+            let y0 = model.forward(base.clone(), &cond);
+            let diff: f32 = (y0 - base).abs().max().into_scalar();
+            assert_eq!(diff, 0.0, "{variant:?}");
+        }
+    }
+
+    #[test]
+    fn genre_order_and_music_columns() {
+        assert_eq!(genre_index("BR"), Some(0));
+        assert_eq!(genre_index("JS"), Some(8));
+        assert_eq!(genre_index("JB"), None);
+        let row: Vec<f32> = (0..35).map(|i| i as f32).collect();
+        let m = music_columns(&row);
+        assert_eq!(m[0], 1.0);
+        assert_eq!(m[19], 20.0);
+        assert_eq!((m[20], m[21]), (0.0, 33.0));
+    }
+}
