@@ -249,3 +249,73 @@ fn tiny_tsmt_overfits_one_batch() {
     );
     assert!(last < 0.05, "CE {last} after {steps} steps");
 }
+
+/// SPEC §12.8.10: tiny in-betweeners overfit one batch (the residual MSE falls 100×): two 120-frame
+/// measures whose true residual over the base is a fixed smooth pattern, for the motion and genre
+/// variants and the music-reading cross_full.
+#[test]
+#[cfg_attr(debug_assertions, ignore = "slow in debug: run with --release")]
+fn tiny_inbetweeners_overfit_one_batch() {
+    use qean_config::inbetween::Variant;
+    use qean_models::inbetween::{Conditioning, Inbetweener, MOTION_DIM, MUSIC_DIM};
+    for variant in [Variant::Motion, Variant::Genre, Variant::CrossFull] {
+        let mut c = qean_config::RunConfig::load(
+            &preset(&format!("inbetween/tiny_{}.toml", variant.name())),
+            &[],
+        )
+        .unwrap()
+        .inbetween();
+        c.dropout = 0.0;
+        let (b, t) = (2, 120);
+        let device = Device::flex().autodiff();
+        device.seed(5);
+        let mut model = Inbetweener::new(&c, &device);
+        let wave = |i: usize, f: f32| (i as f32 * f).sin();
+        let base: Vec<f32> = (0..b * t * MOTION_DIM).map(|i| wave(i, 0.013)).collect();
+        let target: Vec<f32> = base
+            .iter()
+            .enumerate()
+            .map(|(i, x)| x + 0.2 * wave(i / MOTION_DIM, 0.05) * wave(i % MOTION_DIM, 0.7))
+            .collect();
+        let music: Vec<f32> = (0..b * t * MUSIC_DIM).map(|i| wave(i, 0.31)).collect();
+        let genre: Vec<f32> = (0..b * 9).map(|i| (i % 9 == i / 9) as u8 as f32).collect();
+        let tensors = |device: &Device| {
+            let t3 = |v: &Vec<f32>, w: usize| {
+                Tensor::<3>::from_data(TensorData::new(v.clone(), [b, t, w]), device)
+            };
+            let cond = Conditioning {
+                music: variant.has_audio().then(|| t3(&music, MUSIC_DIM)),
+                genre: (variant == Variant::Genre)
+                    .then(|| Tensor::from_data(TensorData::new(genre.clone(), [b, 9]), device)),
+                lengths: None,
+            };
+            (t3(&base, MOTION_DIM), t3(&target, MOTION_DIM), cond)
+        };
+        let loss_of = |model: &Inbetweener, device: &Device| {
+            let (x, y, cond) = tensors(device);
+            let d = model.forward(x, &cond) - y;
+            (d.clone() * d).mean()
+        };
+        let first = loss_of(&model, &device).into_scalar::<f32>() as f64;
+        let mut optim = AdamConfig::new().with_epsilon(1e-8).init();
+        let start = Instant::now();
+        let mut last = first;
+        for step in 1..=600 {
+            let loss = loss_of(&model, &device);
+            let grads = GradientsParams::from_grads(loss.backward(), &model);
+            model = optim.step(1e-3, model, grads);
+            if step % 50 == 0 {
+                last = loss_of(&model.valid(), &Device::flex()).into_scalar::<f32>() as f64;
+                if last < first / 100.0 {
+                    break;
+                }
+            }
+        }
+        println!(
+            "tiny in-betweener {}: residual MSE {first:.5} → {last:.6} ({:.1} s)",
+            variant.name(),
+            start.elapsed().as_secs_f64()
+        );
+        assert!(last < first / 100.0, "{}: {first} → {last}", variant.name());
+    }
+}

@@ -118,6 +118,12 @@ impl Checkpoint {
                 "a TSMT checkpoint, not FACT or QEAN: this command does not take TSMT runs",
             ));
         }
+        if self.config.is_inbetween() {
+            return Err(Error::at(
+                &self.dir,
+                "an in-betweener checkpoint, not FACT or QEAN: it does not generate dances from music",
+            ));
+        }
         crate::family::load_checkpoint_model(&crate::fact_qean::FactQean, self, device)
     }
 
@@ -134,6 +140,14 @@ impl Checkpoint {
             )?;
             return Ok(qean_models::params::named_parameters(&model));
         }
+        if self.config.is_inbetween() {
+            let model = crate::family::load_checkpoint_model(
+                &crate::inbetween::InbetweenFamily,
+                self,
+                device,
+            )?;
+            return Ok(qean_models::params::named_parameters(&model));
+        }
         Ok(qean_models::params::named_parameters(
             &self.load_model(device)?,
         ))
@@ -141,8 +155,9 @@ impl Checkpoint {
 
     /// The architecture tables as TOML (`[model]`, or `[tsmt]` for TSMT runs).
     pub fn architecture_toml(&self) -> String {
-        match (&self.config.tsmt, self.config.is_tsmt()) {
-            (Some(t), true) => toml::to_string(t),
+        match (&self.config.tsmt, &self.config.inbetween) {
+            (Some(t), _) if self.config.is_tsmt() => toml::to_string(t),
+            (_, Some(i)) if self.config.is_inbetween() => toml::to_string(i),
             _ => toml::to_string(&self.config.model),
         }
         .expect("configs serialise")
@@ -161,6 +176,30 @@ impl Checkpoint {
     /// (bins and sampling settings may differ).
     pub fn check_config(&self, config: &qean_config::RunConfig) -> Result<()> {
         self.check_model(&config.model)?;
+        if let (Some(a), Some(b)) = (&self.config.inbetween, &config.inbetween) {
+            let shape = |c: &qean_config::inbetween::InbetweenConfig| {
+                (
+                    c.variant,
+                    c.hidden,
+                    c.heads,
+                    c.ffn,
+                    c.layers,
+                    c.audio_layers,
+                    c.max_len,
+                    c.decoder,
+                )
+            };
+            if shape(a) != shape(b) {
+                return Err(Error::at(
+                    &self.dir,
+                    format!(
+                        "the checkpoint is another in-betweener: {:?} (checkpoint) vs {:?} (variant, hidden, heads, ffn, layers, audio_layers, max_len, decoder)",
+                        shape(a),
+                        shape(b)
+                    ),
+                ));
+            }
+        }
         let shape = |c: &qean_config::RunConfig| {
             c.tsmt.clone().map(|t| qean_config::tsmt::TsmtConfig {
                 bins_lo: Vec::new(),

@@ -332,12 +332,7 @@ pub fn train(config: RunConfig, opts: &TrainOptions) -> Result<TrainOutcome> {
         return train_family(&mut crate::tsmt::TsmtFamily::default(), config, opts);
     }
     if config.is_inbetween() {
-        // The model, its presets and parameter counts exist (qean inspect); its family does not yet.
-        return Err(qean_io::Error::at(
-            &opts.run_dir,
-            "training Lin's in-betweeners (model.arch = \"inbetween\") is not built yet: qean inspect shows \
-             their sizes, qean edit and qean eval --task inbetween use slerp and Bézier meanwhile",
-        ));
+        return train_family(&mut crate::inbetween::InbetweenFamily, config, opts);
     }
     train_family(&mut FactQean, config, opts)
 }

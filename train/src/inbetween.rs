@@ -1,0 +1,367 @@
+//! Lin's transformer in-betweeners as a trainer [`Family`] (SPEC §12.4c "Training"): every sequence is cut
+//! into its measures (the §12.2 grid at the music ID's tempo, shared boundaries), each measure a window of
+//! its own, so an epoch visits every measure once. A window's keyframes are even keys (`train_keys` per
+//! measure, or N ∈ {3, 5, 9} per draw with `mixed_keys`); the base B interpolates them (SLERP, or an
+//! element-wise lerp of the 225-D vectors); the loss is the MSE between the predicted and the true
+//! residual Y − B over the valid frames × 225 values (pad values and keyframes included: their target is
+//! 0 or near it). Windows are padded to `max_len` and each batch is trimmed to its longest measure; the
+//! model masks the padding.
+
+use std::sync::Arc;
+
+use burn::tensor::{Device, Tensor, TensorData};
+use qean_aistpp::dataset::{Dataset, Split};
+use qean_aistpp::windows::{Batch, Sequence, SequenceSet, WindowSpec};
+use qean_config::inbetween::{Base, InbetweenConfig, Variant};
+use qean_config::run::RunConfig;
+use qean_io::error::{Error, Result};
+use qean_keyframes::even::even_keys;
+use qean_keyframes::measure::{segments, Boundary, Rounding};
+use qean_models::inbetween::{
+    genre_index, music_columns, Conditioning, Inbetweener, MOTION_DIM, MUSIC_DIM,
+};
+use qean_motion::rotation::{axis_angle_to_matrix, matrix_to_quaternion, Mat3};
+use rand::{Rng, SeedableRng};
+
+use crate::family::{Family, StepContext};
+
+/// The in-betweener family (no state beyond the run config).
+#[derive(Debug, Clone, Default)]
+pub struct InbetweenFamily;
+
+fn config_of(config: &RunConfig) -> &InbetweenConfig {
+    config.inbetween.as_ref().expect(
+        "an in-betweener run config has an [inbetween] table (RunConfig::from_table fills it)",
+    )
+}
+
+/// The window of one measure, padded to `max_len` frames.
+pub fn segment_spec(max_len: usize) -> WindowSpec {
+    WindowSpec {
+        motion_len: max_len,
+        target_len: max_len,
+        target_shift: 0,
+        audio_len: max_len,
+    }
+}
+
+/// A measure window's name: `<sequence>#<first frame>+<frames>`.
+fn segment_name(sequence: &str, start: usize, len: usize) -> String {
+    format!("{sequence}#{start}+{len}")
+}
+
+/// (sequence name, first frame, frames) of a measure window's name.
+pub fn parse_segment_name(name: &str) -> Option<(&str, usize, usize)> {
+    let (seq, rest) = name.rsplit_once('#')?;
+    let (start, len) = rest.split_once('+')?;
+    Some((seq, start.parse().ok()?, len.parse().ok()?))
+}
+
+/// Rows `a..a + len` of a row-major matrix of width `w`, padded to `total` rows with the last row.
+fn padded_rows(data: &[f32], w: usize, a: usize, len: usize, total: usize) -> Vec<f32> {
+    let mut out = Vec::with_capacity(total * w);
+    out.extend_from_slice(&data[a * w..(a + len) * w]);
+    let last = data[(a + len - 1) * w..(a + len) * w].to_vec();
+    for _ in len..total {
+        out.extend_from_slice(&last);
+    }
+    out
+}
+
+/// Every sequence of a whole-sequence set cut into its measures (each padded to `max_len`); music rows become
+/// the 22 columns of §12.4c. A measure longer than `max_len` is an error naming the sequence.
+pub fn measure_windows(whole: SequenceSet, c: &InbetweenConfig) -> Result<SequenceSet> {
+    let mut sequences = Vec::new();
+    let (d, ad) = (whole.dim, whole.audio_dim);
+    for seq in &whole.sequences {
+        if c.variant == Variant::Genre && seq.name.starts_with("gJB") {
+            continue;
+        }
+        let bpm = qean_aistpp::names::music_id_of(&seq.name)
+            .and_then(|m| qean_aistpp::names::tempo_prior(&m))
+            .ok_or_else(|| {
+                Error::msg(format!(
+                    "{}: no AIST++ music ID in the name, so no measure grid",
+                    seq.name
+                ))
+            })?;
+        let music: Vec<f32> = seq.audio.chunks_exact(ad).flat_map(music_columns).collect();
+        for (a, b) in segments(seq.frames(), bpm, Rounding::Cumulative, Boundary::Shared, 0) {
+            let len = b - a + 1;
+            if len < 2 {
+                continue;
+            }
+            if len > c.max_len {
+                return Err(Error::msg(format!(
+                    "{}: a measure of {len} frames at {bpm} BPM is longer than inbetween.max_len ({})",
+                    seq.name, c.max_len
+                )));
+            }
+            sequences.push(Sequence {
+                name: segment_name(&seq.name, a, len),
+                motion: padded_rows(&seq.motion, d, a, len, c.max_len),
+                motion_frames: c.max_len,
+                audio: Arc::new(padded_rows(&music, MUSIC_DIM, a, len, c.max_len)),
+                audio_frames: c.max_len,
+            });
+        }
+    }
+    Ok(SequenceSet {
+        dim: MOTION_DIM,
+        audio_dim: MUSIC_DIM,
+        spec: segment_spec(c.max_len),
+        sequences,
+        ..whole
+    })
+}
+
+/// Quaternion → rotation matrix (through axis-angle, as the §12.4a SLERP writes poses).
+fn quat_matrix(q: [f64; 4]) -> Mat3 {
+    axis_angle_to_matrix(qean_keyframes::slerp::quat_to_axis_angle(q))
+}
+
+/// The base B of frames 0..len of a 225-D window (row-major) from its keys: translation lerped, each joint's
+/// rotation SLERPed (§12.4a), or every value lerped (`elementwise_lerp`). Keys are copied.
+pub fn base_225(rows: &[f32], len: usize, keys: &[usize], base: Base) -> Vec<f32> {
+    let w = MOTION_DIM;
+    let mut out = rows[..len * w].to_vec();
+    for pair in keys.windows(2) {
+        let (t1, t2) = (pair[0], pair[1]);
+        let (r1, r2) = (&rows[t1 * w..(t1 + 1) * w], &rows[t2 * w..(t2 + 1) * w]);
+        let quats = |r: &[f32]| -> Vec<[f64; 4]> {
+            (0..24)
+                .map(|j| matrix_to_quaternion(&std::array::from_fn(|k| r[9 + 9 * j + k] as f64)))
+                .collect()
+        };
+        let (q1, q2) = if base == Base::Slerp {
+            (quats(r1), quats(r2))
+        } else {
+            (vec![], vec![])
+        };
+        for t in t1 + 1..t2 {
+            let u = (t - t1) as f64 / (t2 - t1) as f64;
+            let row = &mut out[t * w..(t + 1) * w];
+            let lerp = |a: f32, b: f32| ((1.0 - u) * a as f64 + u * b as f64) as f32;
+            match base {
+                Base::ElementwiseLerp => {
+                    for k in 0..w {
+                        row[k] = lerp(r1[k], r2[k]);
+                    }
+                }
+                Base::Slerp => {
+                    row[..9]
+                        .iter_mut()
+                        .zip(r1.iter().zip(r2))
+                        .for_each(|(o, (&a, &b))| *o = lerp(a, b));
+                    for j in 0..24 {
+                        let m = quat_matrix(qean_keyframes::slerp::slerp(q1[j], q2[j], u));
+                        for k in 0..9 {
+                            row[9 + 9 * j + k] = m[k] as f32;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// A batch as the model takes it, with its targets and valid-frame mask.
+pub struct IbInputs {
+    pub base: Tensor<3>,
+    pub target: Tensor<3>,
+    /// [B, T, 1]: 1 on valid frames.
+    pub mask: Tensor<3>,
+    pub cond: Conditioning,
+    pub valid_frames: usize,
+}
+
+/// Keys per measure of row `i` of a draw: `train_keys`, or one of 3, 5, 9 (`mixed_keys`).
+fn keys_for(c: &InbetweenConfig, seed: u64, i: usize) -> usize {
+    if c.mixed_keys {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(
+            seed ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+        );
+        [3, 5, 9][rng.random_range(0..3)]
+    } else {
+        c.train_keys
+    }
+}
+
+/// Tensors of a batch of measure windows, trimmed to its longest measure.
+pub fn tensors(batch: &Batch, c: &InbetweenConfig, seed: u64, device: &Device) -> IbInputs {
+    let b = batch.len();
+    let lens: Vec<usize> = batch
+        .names
+        .iter()
+        .map(|n| {
+            parse_segment_name(n)
+                .expect("measure windows are named by measure_windows")
+                .2
+        })
+        .collect();
+    let t = lens.iter().copied().max().unwrap_or(1);
+    let (w, span) = (MOTION_DIM, batch.spec.motion_len);
+    let (mut base, mut target, mut music, mut mask) = (vec![], vec![], vec![], vec![]);
+    for (i, &len) in lens.iter().enumerate() {
+        let rows = &batch.motion[i * span * w..(i + 1) * span * w];
+        let keys = even_keys(0, len - 1, keys_for(c, seed, i));
+        let mut bi = base_225(rows, len, &keys, c.base);
+        bi.extend_from_slice(&rows[len * w..t * w]);
+        base.extend(bi);
+        target.extend_from_slice(&rows[..t * w]);
+        music.extend_from_slice(&batch.audio[i * span * MUSIC_DIM..(i * span + t) * MUSIC_DIM]);
+        mask.extend((0..t).map(|f| if f < len { 1.0f32 } else { 0.0 }));
+    }
+    let genre = (c.variant == Variant::Genre).then(|| {
+        let mut g = vec![0f32; b * 9];
+        for (i, n) in batch.names.iter().enumerate() {
+            if let Some(k) = n.get(1..3).and_then(genre_index) {
+                g[i * 9 + k] = 1.0;
+            }
+        }
+        Tensor::from_data(TensorData::new(g, [b, 9]), device)
+    });
+    let tensor = |v: Vec<f32>, width: usize| {
+        Tensor::<3>::from_data(TensorData::new(v, [b, t, width]), device)
+    };
+    IbInputs {
+        base: tensor(base, w),
+        target: tensor(target, w),
+        mask: tensor(mask, 1),
+        cond: Conditioning {
+            music: c.variant.has_audio().then(|| tensor(music, MUSIC_DIM)),
+            genre,
+            lengths: Some(lens.clone()),
+        },
+        valid_frames: lens.iter().sum(),
+    }
+}
+
+/// The MSE of the residual over valid frames × 225 values: ((Ŷ − B) − (Y − B))² = (Ŷ − Y)².
+pub fn residual_loss(model: &Inbetweener, inputs: IbInputs) -> Tensor<1> {
+    let pred = model.forward(inputs.base, &inputs.cond);
+    let diff = (pred - inputs.target) * inputs.mask;
+    (diff.clone() * diff)
+        .sum()
+        .div_scalar((inputs.valid_frames * MOTION_DIM) as f64)
+}
+
+impl Family for InbetweenFamily {
+    type Model = Inbetweener;
+    type Inputs = IbInputs;
+
+    fn init(&self, config: &RunConfig, device: &Device) -> Inbetweener {
+        Inbetweener::new(config_of(config), device)
+    }
+
+    fn draw_spec(&self, config: &RunConfig) -> WindowSpec {
+        segment_spec(config_of(config).max_len)
+    }
+
+    /// Whole sequences (any length), cut into measure windows.
+    fn load_set(
+        &self,
+        dataset: &Dataset,
+        split: Split,
+        _spec: WindowSpec,
+        config: &RunConfig,
+    ) -> Result<SequenceSet> {
+        let c = config_of(config);
+        if c.variant.drums() {
+            return Err(Error::msg(format!(
+                "inbetween.variant = \"{}\" needs the drums stem's features, which training does not compute yet; \
+                 use motion, genre, cross_full or merged_full",
+                c.variant.name()
+            )));
+        }
+        let one = WindowSpec {
+            motion_len: 1,
+            target_len: 1,
+            target_shift: 0,
+            audio_len: 1,
+        };
+        let whole = crate::data::load_split(dataset, split, config.layout(), one, &config.recipe)?;
+        measure_windows(whole, c)
+    }
+
+    fn inputs(
+        &self,
+        drawn: Batch,
+        _model: &Inbetweener,
+        device: &Device,
+        ctx: &StepContext,
+    ) -> IbInputs {
+        tensors(&drawn, config_of(ctx.config), ctx.rng_seed, device)
+    }
+
+    fn loss(&self, model: &Inbetweener, inputs: IbInputs, _config: &RunConfig) -> Tensor<1> {
+        residual_loss(model, inputs)
+    }
+
+    /// Every validation measure once, `train_keys` keys, no dropout: the mean loss per valid value.
+    fn validation_loss(
+        &self,
+        model: &Inbetweener,
+        set: &SequenceSet,
+        config: &RunConfig,
+        device: &Device,
+    ) -> f64 {
+        let c = InbetweenConfig {
+            mixed_keys: false,
+            ..config_of(config).clone()
+        };
+        let all = set.first_windows();
+        let (mut sum, mut count) = (0.0, 0usize);
+        let mut start = 0;
+        while start < all.len() {
+            let end = (start + config.train.batch_size.max(1)).min(all.len());
+            let inputs = tensors(&all.slice(start, end), &c, 0, device);
+            let values = inputs.valid_frames * MOTION_DIM;
+            sum += residual_loss(model, inputs).into_scalar::<f32>() as f64 * values as f64;
+            count += values;
+            start = end;
+        }
+        sum / count.max(1) as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn segment_names_round_trip() {
+        let n = segment_name("gBR_sBM_cAll_d04_mBR0_ch01", 180, 181);
+        assert_eq!(
+            parse_segment_name(&n),
+            Some(("gBR_sBM_cAll_d04_mBR0_ch01", 180, 181))
+        );
+    }
+
+    #[test]
+    fn slerp_base_copies_keys_and_equals_the_motion_slerp() {
+        let m = qean_motion::Motion::read_pkl(
+            &qean_io::testdata::shared_dir()
+                .join("aistpp/motions/softcat477_sample_with_scaling.pkl"),
+        )
+        .unwrap();
+        let rows = m.to_layout(qean_motion::Layout::L225);
+        let keys = [0, 30, 60, 90, 120];
+        let b = base_225(&rows, 121, &keys, Base::Slerp);
+        let want = qean_keyframes::slerp::inbetween(&m.slice(0, 121), &keys)
+            .to_layout(qean_motion::Layout::L225);
+        let worst = b
+            .iter()
+            .zip(&want)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-5, "{worst}");
+        for &k in &keys {
+            assert_eq!(b[k * 225..(k + 1) * 225], rows[k * 225..(k + 1) * 225]);
+        }
+        // The element-wise lerp halfway between two keys is the mean of their vectors.
+        let l = base_225(&rows, 121, &[0, 2], Base::ElementwiseLerp);
+        assert!((l[225 + 20] - 0.5 * (rows[20] + rows[450 + 20])).abs() < 1e-6);
+    }
+}
