@@ -62,6 +62,10 @@ pub struct Args {
     /// keyframes.stem_source=hpss or inbetween.mse_space=joints.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+    /// --task inbetween: trained in-betweener runs (qean train --config configs/inbetween/...), comma-separated;
+    /// each adds an even-keys row.
+    #[arg(long, value_delimiter = ',')]
+    pub inbetweeners: Vec<PathBuf>,
     /// --task inbetween: the directory for report.{md,json}.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -430,6 +434,7 @@ fn run_inbetween(args: &Args) -> anyhow::Result<String> {
         include_jb: args.include_jb,
         stems: args.stems.clone(),
         root: args.fk_root.fk(),
+        inbetweeners: args.inbetweeners.clone(),
     })?;
     Ok(format!("{md}\nwrote {}\n", out.join("report.md").display()))
 }

@@ -210,6 +210,62 @@ fn tiny_in_betweeners_train_and_resume_exactly() {
         train(variant, &run, 2, false);
         assert!(!checkpoints(&run).is_empty(), "{variant}");
     }
+    // The trained model at work: an edit (frames outside the range untouched) and a benchmark row.
+    let motion_path = std::fs::read_dir(data.join("motions"))
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let input = qean_motion::Motion::read_pkl(&motion_path).unwrap();
+    let edits = dir.path().join("edits.json");
+    std::fs::write(&edits, r#"{"regenerate": [[20, 150]], "keep": "grid:5"}"#).unwrap();
+    let out = dir.path().join("edited.pkl");
+    let mut c = qean();
+    c.args(["edit", "--method", "transformer", "--motion"])
+        .arg(&motion_path)
+        .arg("--edits")
+        .arg(&edits)
+        .arg("--run")
+        .arg(&straight)
+        .arg("--out")
+        .arg(&out);
+    run_ok(&mut c);
+    let edited = qean_motion::Motion::read_pkl(&out).unwrap();
+    for t in (0..20).chain(151..input.frames) {
+        assert_eq!(
+            edited.poses[t * 72..(t + 1) * 72],
+            input.poses[t * 72..(t + 1) * 72],
+            "frame {t}"
+        );
+    }
+    assert_ne!(
+        edited.poses[60 * 72 + 3..60 * 72 + 9],
+        input.poses[60 * 72 + 3..60 * 72 + 9]
+    );
+    let report = std::fs::read_to_string(out.with_extension("report.json")).unwrap();
+    assert!(report.contains("params_hash"), "{report}");
+    let ib = dir.path().join("ib");
+    let mut c = qean();
+    c.args([
+        "eval",
+        "--task",
+        "inbetween",
+        "--keys",
+        "5",
+        "--strategies",
+        "even",
+        "--methods",
+        "linear",
+        "--data",
+    ])
+    .arg(&data)
+    .arg("--inbetweeners")
+    .arg(&straight)
+    .arg("--out")
+    .arg(&ib);
+    let md = run_ok(&mut c);
+    assert!(md.contains("| even / motion ("), "{md}");
     // The drums variants need stem features that training does not compute yet: one clear line.
     let mut c = qean();
     c.args(["train", "--config"])

@@ -181,11 +181,16 @@ impl EditSpec {
     }
 }
 
+/// A caller's in-betweener: the edited motion and one range's anchors → the motion with the range rebuilt.
+pub type Rebuild<'a> = &'a dyn Fn(&Motion, &[usize]) -> Result<Motion, String>;
+
 /// How the regenerated frames are drawn.
 pub enum Method<'a> {
     Slerp,
     /// Bézier curves with this mean θ.
     Bezier(&'a MeanTheta, BezierSettings),
+    /// A learnt in-betweener (e.g. a trained transformer, which this crate does not know).
+    Learnt(Rebuild<'a>),
 }
 
 /// One range's anchors and its error against the input.
@@ -203,7 +208,7 @@ pub fn apply(
     spec: &EditSpec,
     kept: &[usize],
     method: &Method,
-) -> (Motion, Vec<RangeReport>) {
+) -> Result<(Motion, Vec<RangeReport>), String> {
     let mut edited = motion.clone();
     for e in &spec.edits {
         edited.poses[e.frame * 72..e.frame * 72 + 72].copy_from_slice(&e.pose_aa);
@@ -229,6 +234,7 @@ pub fn apply(
             Method::Bezier(mean, settings) => {
                 bezier::inbetween(&edited, &anchors, ThetaSource::Mean(mean), settings)
             }
+            Method::Learnt(rebuild) => rebuild(&edited, &anchors)?,
         };
         out.poses[a * 72..(b + 1) * 72].copy_from_slice(&rebuilt.poses[a * 72..(b + 1) * 72]);
         out.trans[a * 3..(b + 1) * 3].copy_from_slice(&rebuilt.trans[a * 3..(b + 1) * 3]);
@@ -243,7 +249,7 @@ pub fn apply(
             mse_rotmat,
         });
     }
-    (out, reports)
+    Ok((out, reports))
 }
 
 #[cfg(test)]
@@ -274,7 +280,7 @@ mod tests {
         let Keep::Frames(kept) = spec.keep.clone() else {
             panic!()
         };
-        let (out, reports) = apply(&m, &spec, &kept, &Method::Slerp);
+        let (out, reports) = apply(&m, &spec, &kept, &Method::Slerp).unwrap();
         for t in (0..5).chain(21..40).chain(56..60) {
             assert_eq!(
                 out.poses[t * 72..t * 72 + 72],
@@ -297,11 +303,12 @@ mod tests {
             },
             &all,
             &Method::Slerp,
-        );
+        )
+        .unwrap();
         assert_eq!(same, m);
         // A two-key range with SLERP is §12.4a between its ends.
         let two = EditSpec::parse(r#"{"regenerate": [[12, 30]]}"#, 60).unwrap();
-        let (o, _) = apply(&m, &two, &[], &Method::Slerp);
+        let (o, _) = apply(&m, &two, &[], &Method::Slerp).unwrap();
         let direct = slerp::inbetween(&m, &[12, 30]);
         assert_eq!(o.poses[12 * 72..31 * 72], direct.poses[12 * 72..31 * 72]);
     }

@@ -18,7 +18,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 
 use crate::attention::{merge_heads, split_heads};
 use crate::feed_forward::{FeedForward, FeedForwardConfig};
-use crate::init::{glorot_dense, truncated_normal};
+use crate::init::{glorot_dense, truncated_normal, truncated_normal_dense};
 use qean_config::inbetween::{Decoder, IbScale, InbetweenConfig, Variant};
 
 /// Motion vector width (the 225-D layout of §1.4).
@@ -241,7 +241,7 @@ pub struct Inbetweener {
     pub music: Option<MusicEncoder>,
     /// The self-attention stack, or the decoder of the cross variants.
     pub layers: Vec<Layer>,
-    /// Dense(d → 225).
+    /// Dense(d → 225): §4.1's output init (truncated normal σ 0.02, zero bias), so f starts small and Ŷ ≈ B.
     pub output: Linear,
     pub dropout: Dropout,
     genre: bool,
@@ -276,7 +276,7 @@ impl Inbetweener {
             layers: (0..c.layers)
                 .map(|_| Layer::new(c, self_attention, v.is_cross(), device))
                 .collect(),
-            output: glorot_dense(c.hidden, MOTION_DIM, true, device),
+            output: truncated_normal_dense(c.hidden, MOTION_DIM, 0.02, device),
             dropout: DropoutConfig::new(c.dropout).init(),
             genre: v == Variant::Genre,
             merged,

@@ -2,6 +2,7 @@
 //! and write the edited dance, its report and (optionally) a preview — all checked before anything is
 //! written.
 
+use crate::inbetweener::{rebuild, Context, Segment, Trained};
 use crate::keyframes::{select_keyframes_of, KeyframesRequest};
 use crate::{Error, Result};
 use qean_keyframes::bezier::{BezierSettings, MeanTheta};
@@ -20,6 +21,8 @@ use std::path::{Path, PathBuf};
 pub enum EditMethod {
     Slerp,
     Bezier,
+    /// A trained in-betweener (`--run R`).
+    Transformer,
 }
 
 #[derive(Debug, Clone)]
@@ -35,6 +38,10 @@ pub struct EditRequest {
     pub out: PathBuf,
     /// Also write `<out>.png` and `<out>.gif`.
     pub render: bool,
+    /// The trained in-betweener of `transformer`.
+    pub run: Option<PathBuf>,
+    /// The dance's genre code for the genre in-betweener (default: from an AIST++ name).
+    pub genre: Option<String>,
 }
 
 /// The report written beside the output.
@@ -167,6 +174,37 @@ fn warn_if_faster(input: &Motion, out: &Motion, ranges: &[(usize, usize)], edits
     }
 }
 
+/// A range's anchors as in-betweener windows: the span cut at anchors into windows of at most `max_len`
+/// frames (each window's ends are anchors, so consecutive windows share one).
+pub fn anchor_windows(
+    anchors: &[usize],
+    max_len: usize,
+) -> std::result::Result<Vec<Segment>, String> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    while start + 1 < anchors.len() {
+        let mut end = start + 1;
+        if anchors[end] - anchors[start] + 1 > max_len {
+            return Err(format!(
+                "anchors {} and {} are {} frames apart, more than the in-betweener's {max_len}: keep a frame between them",
+                anchors[start],
+                anchors[end],
+                anchors[end] - anchors[start]
+            ));
+        }
+        while end + 1 < anchors.len() && anchors[end + 1] - anchors[start] < max_len {
+            end += 1;
+        }
+        out.push(Segment {
+            a: anchors[start],
+            b: anchors[end],
+            keys: anchors[start..=end].to_vec(),
+        });
+        start = end;
+    }
+    Ok(out)
+}
+
 /// Run an edit; returns the report (already written beside the output).
 pub fn edit(req: &EditRequest) -> Result<EditReport> {
     req.options
@@ -193,17 +231,50 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
     }
     let kept = kept_frames(&motion, req, &spec.keep)?;
     let (theta, theta_source) = match req.method {
-        EditMethod::Slerp => (None, None),
+        EditMethod::Slerp | EditMethod::Transformer => (None, None),
         EditMethod::Bezier => {
             let (t, s) = own_theta(&motion, &spec, &kept, &req.bezier);
             (Some(t), Some(s))
         }
     };
-    let method = match &theta {
-        None => Method::Slerp,
-        Some(t) => Method::Bezier(t, req.bezier),
+    let trained = match (req.method, &req.run) {
+        (EditMethod::Transformer, Some(run)) => Some(Trained::load(run)?),
+        (EditMethod::Transformer, None) => {
+            return Err(Error::Invalid(
+                "--method transformer needs --run R (a trained in-betweener)".into(),
+            ))
+        }
+        _ => None,
     };
-    let (out, ranges) = apply(&motion, &spec, &kept, &method);
+    let features = match (&trained, &req.music) {
+        (Some(t), Some(music)) if t.config.variant.has_audio() => {
+            Some(qean_audio::features::features_for_file(music, &Default::default())?.data)
+        }
+        _ => None,
+    };
+    let genre = req.genre.clone().or_else(|| {
+        req.motion
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .and_then(|s| s.strip_prefix('g'))
+            .map(|s| s.chars().take(2).collect())
+    });
+    let learnt = |edited: &Motion, anchors: &[usize]| -> std::result::Result<Motion, String> {
+        let t = trained.as_ref().expect("only with a trained model");
+        let ctx = Context {
+            features: features.as_deref(),
+            genre: genre.as_deref(),
+        };
+        rebuild(t, edited, &anchor_windows(anchors, t.config.max_len)?, &ctx)
+            .map_err(|e| e.to_string())
+    };
+    let method = match (&theta, &trained) {
+        (_, Some(_)) => Method::Learnt(&learnt),
+        (None, None) => Method::Slerp,
+        (Some(t), None) => Method::Bezier(t, req.bezier),
+    };
+    let (out, ranges) = apply(&motion, &spec, &kept, &method)
+        .map_err(|e| Error::Invalid(format!("{}: {e}", req.edits.display())))?;
     if req.method == EditMethod::Bezier {
         warn_if_faster(&motion, &out, &spec.regenerate, &req.edits);
     }
@@ -215,7 +286,7 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
         input: req.motion.display().to_string(),
         output: req.out.display().to_string(),
         method: req.method,
-        checkpoint: None,
+        checkpoint: trained.as_ref().map(|t| t.label()),
         keep: keep_label(&spec.keep),
         theta_source,
         edited_frames: spec.edits.iter().map(|e| e.frame).collect(),

@@ -2,6 +2,7 @@
 //! rebuild the frames between them, and score the rebuilt set against the originals with MSE, FID_g and
 //! FID_k (Dist and BeatAlign as extras), next to Lin's published numbers.
 
+use crate::inbetweener::{measure_segments, rebuild, Context, Trained};
 use crate::keyframes::{select_keyframes_of, KeyframesRequest};
 use crate::{Error, Result};
 use qean_aistpp::dataset::{Dataset, Split};
@@ -29,6 +30,8 @@ pub enum IbMethod {
     Bezier,
     /// Bézier fitted on each test dance itself (Lin's DP protocol, "following Roberts").
     BezierFit,
+    /// A trained transformer in-betweener (`--inbetweeners R`).
+    Transformer,
 }
 
 impl IbMethod {
@@ -48,6 +51,7 @@ impl IbMethod {
             IbMethod::Linear => "linear+SLERP",
             IbMethod::Bezier => "Bézier (train mean)",
             IbMethod::BezierFit => "Bézier (fit on test)",
+            IbMethod::Transformer => "transformer",
         }
     }
 }
@@ -82,11 +86,15 @@ pub struct InbetweenRequest {
     /// `<data>/stems`.
     pub stems: Option<PathBuf>,
     pub root: FkRoot,
+    /// Trained in-betweener runs: each adds an even-keys row (Lin's Exp. 3).
+    pub inbetweeners: Vec<PathBuf>,
 }
 
 /// One (strategy, method, N) cell.
 #[derive(Debug, Clone, Serialize)]
 pub struct Row {
+    /// "even / linear+SLERP", "even / motion (runs/ib, params_hash …)", …
+    pub label: String,
     pub strategy: Strategy,
     pub method: IbMethod,
     pub n: usize,
@@ -140,6 +148,18 @@ fn keys_of(
     strategy: Strategy,
     n: usize,
 ) -> Result<Vec<usize>> {
+    Ok(selection_of(ds, req, name, motion, strategy, n)?.keyframes)
+}
+
+/// The measures and keys of one dataset sequence under a strategy.
+fn selection_of(
+    ds: &Dataset,
+    req: &InbetweenRequest,
+    name: &str,
+    motion: &Motion,
+    strategy: Strategy,
+    n: usize,
+) -> Result<qean_keyframes::select::Selection> {
     let music_id = qean_aistpp::names::music_id_of(name);
     let music = music_id.as_deref().and_then(|m| ds.audio_path(m));
     let stems_root = req.stems.clone().unwrap_or_else(|| ds.root.join("stems"));
@@ -152,7 +172,18 @@ fn keys_of(
         bpm: None,
         options: req.options.clone(),
     };
-    Ok(select_keyframes_of(motion, &k)?.selection.keyframes)
+    Ok(select_keyframes_of(motion, &k)?.selection)
+}
+
+/// The 35-D features of the test sequences' music IDs (from the dataset's feature cache).
+fn test_features(ds: &Dataset, names: &[String]) -> Result<HashMap<String, Vec<f32>>> {
+    qean_train::data::ensure_features(ds, names)?;
+    let mut out = HashMap::new();
+    for id in Dataset::music_ids(names) {
+        let (data, _) = qean_aistpp::feature_cache::load(ds, &id)?;
+        out.insert(id, data);
+    }
+    Ok(out)
 }
 
 fn joints_sequence(name: &str, m: &Motion, root: FkRoot) -> Sequence {
@@ -181,6 +212,18 @@ struct Cell<'a> {
     method: IbMethod,
     n: usize,
     mean: Option<&'a MeanTheta>,
+    trained: Option<&'a Trained>,
+    /// 35-D features per music ID (for music-reading in-betweeners).
+    features: &'a HashMap<String, Vec<f32>>,
+}
+
+impl Cell<'_> {
+    fn label(&self) -> String {
+        match self.trained {
+            Some(t) => format!("{} / {}", self.strategy.name(), t.label()),
+            None => format!("{} / {}", self.strategy.name(), self.method.label()),
+        }
+    }
 }
 
 /// Rebuild every test dance for one cell and score the set (the row's `seconds` is left 0).
@@ -195,9 +238,26 @@ fn score(
     let mut generated = Vec::new();
     let (mut total_mse, mut total_keys) = (0.0, 0usize);
     for (name, motion) in test.names.iter().zip(&test.motions) {
-        let keys = keys_of(ds, req, name, motion, cell.strategy, cell.n)?;
+        let selection = selection_of(ds, req, name, motion, cell.strategy, cell.n)?;
+        let keys = selection.keyframes;
         total_keys += keys.len();
         let rebuilt = match (cell.method, cell.mean) {
+            (IbMethod::Transformer, _) => {
+                let trained = cell.trained.expect("transformer cells carry their model");
+                let music =
+                    qean_aistpp::names::music_id_of(name).and_then(|m| cell.features.get(&m));
+                let ctx = Context {
+                    features: music.map(Vec::as_slice),
+                    genre: name.get(1..3),
+                };
+                rebuild(
+                    trained,
+                    motion,
+                    &measure_segments(&selection.segments, &keys),
+                    &ctx,
+                )
+                .map_err(|e| Error::Invalid(format!("{name}: {e}")))?
+            }
             (IbMethod::Linear, _) => slerp::inbetween(motion, &keys),
             (IbMethod::Bezier, Some(m)) => {
                 bezier::inbetween(motion, &keys, ThetaSource::Mean(m), &req.bezier)
@@ -219,6 +279,7 @@ fn score(
         })?;
     let count = test.names.len() as f64;
     let row = Row {
+        label: cell.label(),
         strategy: cell.strategy,
         method: cell.method,
         n: cell.n,
@@ -278,11 +339,28 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
             .cloned()
             .ok_or_else(|| qean_eval::Error::file(&wav, format!("no audio for music ID '{id}'")))
     };
+    let trained = req
+        .inbetweeners
+        .iter()
+        .map(|r| Trained::load(r))
+        .collect::<Result<Vec<_>>>()?;
+    let features = if trained.iter().any(|t| t.config.variant.has_audio()) {
+        test_features(&ds, &test.names)?
+    } else {
+        HashMap::new()
+    };
+    let mut cells: Vec<(Strategy, IbMethod, Option<&Trained>)> =
+        req.rows.iter().map(|&(s, m)| (s, m, None)).collect();
+    cells.extend(
+        trained
+            .iter()
+            .map(|t| (Strategy::Even, IbMethod::Transformer, Some(t))),
+    );
     let mut rows = Vec::new();
     let mut gt = None;
     let mut means: HashMap<(Strategy, usize), MeanTheta> = HashMap::new();
     for &n in &req.keys {
-        for &(strategy, method) in &req.rows {
+        for &(strategy, method, trained) in &cells {
             let t0 = Instant::now();
             let mean = if method == IbMethod::Bezier {
                 let train = train.as_ref().expect("loaded when a row needs it");
@@ -299,6 +377,8 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
                 method,
                 n,
                 mean,
+                trained,
+                features: &features,
             };
             let (row, report) = score(&ds, req, &test, &reference, &lookup, &cell)?;
             gt.get_or_insert((report.gt_div_k, report.gt_div_g, report.gt_beat_align));
@@ -306,7 +386,7 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
                 seconds: t0.elapsed().as_secs_f64(),
                 ..row
             });
-            tracing::info!("{} / {} at {n} keys: done", strategy.name(), method.label());
+            tracing::info!("{} at {n} keys: done", cell.label());
         }
     }
     let (gt_dist_k, gt_dist_g, gt_beat_align) = gt.expect("at least one row");
@@ -330,6 +410,17 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
     Ok((report, md))
 }
 
+/// The distinct row labels, in order of first appearance.
+fn row_labels(rows: &[Row]) -> Vec<String> {
+    let mut labels: Vec<String> = Vec::new();
+    for r in rows {
+        if !labels.contains(&r.label) {
+            labels.push(r.label.clone());
+        }
+    }
+    labels
+}
+
 /// A named column of a row.
 type Metric = (&'static str, fn(&Row) -> f64);
 
@@ -337,19 +428,14 @@ type Metric = (&'static str, fn(&Row) -> f64);
 /// with Bézier fitted per sequence have the lowest MSE.
 pub fn checks(rows: &[Row]) -> Vec<String> {
     let mut out = Vec::new();
-    let mut pairs: Vec<(Strategy, IbMethod)> =
-        rows.iter().map(|r| (r.strategy, r.method)).collect();
-    pairs.dedup();
-    pairs.sort_by_key(|p| format!("{p:?}"));
-    pairs.dedup();
-    for (s, m) in pairs {
-        if !matches!(s, Strategy::Even | Strategy::Dp | Strategy::Onset) {
+    for label in row_labels(rows) {
+        let mut cells: Vec<&Row> = rows.iter().filter(|r| r.label == label).collect();
+        if !matches!(
+            cells[0].strategy,
+            Strategy::Even | Strategy::Dp | Strategy::Onset
+        ) {
             continue;
         }
-        let mut cells: Vec<&Row> = rows
-            .iter()
-            .filter(|r| r.strategy == s && r.method == m)
-            .collect();
         cells.sort_by_key(|r| r.n);
         if cells.len() < 2 {
             continue;
@@ -359,7 +445,7 @@ pub fn checks(rows: &[Row]) -> Vec<String> {
             ("FID_g", |r| r.fid_g),
             ("FID_k", |r| r.fid_k),
         ];
-        for (label, get) in metrics {
+        for (metric, get) in metrics {
             let rises: Vec<String> = cells
                 .windows(2)
                 .filter(|w| get(w[1]) >= get(w[0]))
@@ -373,7 +459,7 @@ pub fn checks(rows: &[Row]) -> Vec<String> {
                     )
                 })
                 .collect();
-            let what = format!("(i) {} / {}: {label} falls as N grows", s.name(), m.label());
+            let what = format!("(i) {label}: {metric} falls as N grows");
             out.push(if rises.is_empty() {
                 format!("{what}: holds")
             } else {
@@ -401,11 +487,8 @@ pub fn checks(rows: &[Row]) -> Vec<String> {
             format!("{what}: holds ({:.4})", dp.mse)
         } else {
             format!(
-                "{what}: VIOLATED ({} / {} has {:.4} < {:.4})",
-                best.strategy.name(),
-                best.method.label(),
-                best.mse,
-                dp.mse
+                "{what}: VIOLATED ({} has {:.4} < {:.4})",
+                best.label, best.mse, dp.mse
             )
         });
     }
@@ -566,20 +649,10 @@ pub fn markdown(r: &InbetweenReport) -> String {
     s += "\n|---|";
     s += &"---|---|---|".repeat(ns.len());
     s += "\n";
-    let mut labels: Vec<(Strategy, IbMethod)> = Vec::new();
-    for x in &r.rows {
-        if !labels.contains(&(x.strategy, x.method)) {
-            labels.push((x.strategy, x.method));
-        }
-    }
-    for (st, m) in &labels {
-        s += &format!("| {} / {} |", st.name(), m.label());
+    for label in row_labels(&r.rows) {
+        s += &format!("| {label} |");
         for n in &ns {
-            match r
-                .rows
-                .iter()
-                .find(|x| x.strategy == *st && x.method == *m && x.n == *n)
-            {
+            match r.rows.iter().find(|x| x.label == label && x.n == *n) {
                 Some(x) => s += &format!(" {:.4} | {:.2} | {:.2} |", x.mse, x.fid_g, x.fid_k),
                 None => s += " | | |",
             }
@@ -589,9 +662,8 @@ pub fn markdown(r: &InbetweenReport) -> String {
     s += "\nExtras (Dist_k, Dist_g, BeatAlign; mean keyframes per sequence; seconds):\n\n| keys / in-between | N | Dist_k | Dist_g | BeatAlign | keys | s |\n|---|---|---|---|---|---|---|\n";
     for x in &r.rows {
         s += &format!(
-            "| {} / {} | {} | {:.3} | {:.3} | {} | {:.1} | {:.1} |\n",
-            x.strategy.name(),
-            x.method.label(),
+            "| {} | {} | {:.3} | {:.3} | {} | {:.1} | {:.1} |\n",
+            x.label,
             x.n,
             x.dist_k,
             x.dist_g,

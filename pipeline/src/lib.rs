@@ -9,6 +9,7 @@ pub mod error;
 pub mod evaluate;
 pub mod generate;
 pub mod inbetween;
+pub mod inbetweener;
 pub mod keyframes;
 pub mod tsmt;
 

@@ -112,9 +112,16 @@ pub struct EditArgs {
     /// The edits: {"regenerate": [[a, b], ...], "keep": ..., "edits": [...]}.
     #[arg(long)]
     pub edits: PathBuf,
-    /// slerp or bezier.
+    /// slerp, bezier or transformer (a trained in-betweener, --run R).
     #[arg(long, value_enum, default_value_t = MethodArg::Slerp)]
     pub method: MethodArg,
+    /// The in-betweener run for --method transformer (qean train --config configs/inbetween/...).
+    #[arg(long)]
+    pub run: Option<PathBuf>,
+    /// The dance's genre (BR, PO, LO, MH, LH, HO, WA, KR, JS) for the genre in-betweener; default: from an
+    /// AIST++ name.
+    #[arg(long)]
+    pub genre: Option<String>,
     /// Tempo for the measure grid of keep rules (else from the names or the music).
     #[arg(long)]
     pub bpm: Option<f64>,
@@ -133,6 +140,7 @@ pub struct EditArgs {
 pub enum MethodArg {
     Slerp,
     Bezier,
+    Transformer,
 }
 
 pub fn edit(a: EditArgs) -> anyhow::Result<()> {
@@ -145,7 +153,10 @@ pub fn edit(a: EditArgs) -> anyhow::Result<()> {
         method: match a.method {
             MethodArg::Slerp => qean_pipeline::edit::EditMethod::Slerp,
             MethodArg::Bezier => qean_pipeline::edit::EditMethod::Bezier,
+            MethodArg::Transformer => qean_pipeline::edit::EditMethod::Transformer,
         },
+        run: a.run.clone(),
+        genre: a.genre.clone(),
         bpm: a.bpm,
         options: settings.keyframes,
         bezier: settings.bezier,

@@ -1,0 +1,202 @@
+//! A trained in-betweener at work (SPEC §12.4c "Inference"): segments rebuilt from their keys, keyframes
+//! clamped to the input, rotations projected to SO(3), segments stitched at their shared keys.
+
+use std::path::Path;
+
+use burn::tensor::{Device, Tensor, TensorData};
+use qean_config::inbetween::{InbetweenConfig, Variant};
+use qean_models::inbetween::{
+    genre_index, music_columns, Conditioning, Inbetweener, MOTION_DIM, MUSIC_DIM,
+};
+use qean_motion::{Layout, Motion};
+use qean_train::checkpoint::{resolve, Checkpoint};
+use qean_train::inbetween::{base_225, InbetweenFamily};
+
+use crate::{Error, Result};
+
+/// A trained in-betweener on the CPU.
+pub struct Trained {
+    pub model: Inbetweener,
+    pub config: InbetweenConfig,
+    pub checkpoint: Checkpoint,
+}
+
+impl Trained {
+    /// The newest checkpoint of a run (or a checkpoint directory), which must be an in-betweener.
+    pub fn load(run: &Path) -> Result<Trained> {
+        let checkpoint = resolve(run)?;
+        if !checkpoint.config.is_inbetween() {
+            return Err(Error::Invalid(format!(
+                "{}: not an in-betweener run (model.arch = {:?})",
+                checkpoint.dir.display(),
+                checkpoint.config.model.arch
+            )));
+        }
+        let config = checkpoint.config.inbetween();
+        if config.variant.drums() {
+            return Err(Error::Invalid(format!(
+                "{}: the drums variants need stem features that inference does not compute yet",
+                checkpoint.dir.display()
+            )));
+        }
+        let model = qean_train::family::load_checkpoint_model(
+            &InbetweenFamily,
+            &checkpoint,
+            &Device::flex(),
+        )?;
+        Ok(Trained {
+            model,
+            config,
+            checkpoint,
+        })
+    }
+
+    /// A label for reports: variant, checkpoint directory and weights hash.
+    pub fn label(&self) -> String {
+        format!(
+            "{} ({}, params_hash {})",
+            self.config.variant.name(),
+            self.checkpoint.dir.display(),
+            &self.checkpoint.state.params_hash[..12.min(self.checkpoint.state.params_hash.len())]
+        )
+    }
+}
+
+/// What a rebuild reads besides the motion.
+pub struct Context<'a> {
+    /// The music's 35-D features (frames × 35), aligned with the motion; needed by the music variants.
+    pub features: Option<&'a [f32]>,
+    /// The dance's genre code (BR, PO, …); needed by the genre variant.
+    pub genre: Option<&'a str>,
+}
+
+/// One segment to rebuild: inclusive frames [a, b] and its keys (absolute frames, sorted, a and b among
+/// them). Frames between keys are regenerated; keys keep the input's values.
+#[derive(Debug, Clone)]
+pub struct Segment {
+    pub a: usize,
+    pub b: usize,
+    pub keys: Vec<usize>,
+}
+
+/// Rebuild `segments` of `motion`: every segment in one padded batch, Ŷ = B + f(·), keys clamped, rotations
+/// projected. Frames outside the segments and the keys are the input's, bit for bit.
+pub fn rebuild(
+    trained: &Trained,
+    motion: &Motion,
+    segments: &[Segment],
+    ctx: &Context,
+) -> Result<Motion> {
+    let c = &trained.config;
+    let device = Device::flex();
+    let rows = motion.to_layout(Layout::L225);
+    let w = MOTION_DIM;
+    if segments.is_empty() {
+        return Ok(motion.clone());
+    }
+    let lens: Vec<usize> = segments.iter().map(|s| s.b - s.a + 1).collect();
+    let t = *lens.iter().max().expect("non-empty");
+    if t > c.max_len {
+        return Err(Error::Invalid(format!(
+            "a segment of {t} frames is longer than the in-betweener's {} (inbetween.max_len)",
+            c.max_len
+        )));
+    }
+    let genre = match (c.variant, ctx.genre) {
+        (Variant::Genre, Some(g)) => Some(genre_index(g).ok_or_else(|| {
+            Error::Invalid(format!(
+                "genre {g:?} is not one the genre in-betweener knows (BR PO LO MH LH HO WA KR JS)"
+            ))
+        })?),
+        (Variant::Genre, None) => {
+            return Err(Error::Invalid(
+                "the genre in-betweener needs the dance's genre (an AIST++ name or --genre)".into(),
+            ))
+        }
+        _ => None,
+    };
+    let features = match (c.variant.has_audio(), ctx.features) {
+        (true, Some(f)) => Some(f),
+        (true, None) => {
+            return Err(Error::Invalid(format!(
+                "the {} in-betweener needs the music",
+                c.variant.name()
+            )))
+        }
+        (false, _) => None,
+    };
+    let (mut base, mut music) = (Vec::new(), Vec::new());
+    for (s, &len) in segments.iter().zip(&lens) {
+        let seg = &rows[s.a * w..(s.b + 1) * w];
+        let rel: Vec<usize> = s.keys.iter().map(|k| k - s.a).collect();
+        let mut bi = base_225(seg, len, &rel, c.base);
+        bi.extend(std::iter::repeat_n(0.0, (t - len) * w));
+        base.extend(bi);
+        if let Some(f) = features {
+            let frames = f.len() / 35;
+            for i in 0..t {
+                // Past the music's end (or the segment's), its last row.
+                let r = (s.a + i.min(len - 1)).min(frames.saturating_sub(1));
+                music.extend(music_columns(&f[r * 35..(r + 1) * 35]));
+            }
+        }
+    }
+    let n = segments.len();
+    let cond = Conditioning {
+        music: features
+            .map(|_| Tensor::<3>::from_data(TensorData::new(music, [n, t, MUSIC_DIM]), &device)),
+        genre: genre.map(|g| {
+            let mut v = vec![0f32; n * 9];
+            (0..n).for_each(|i| v[i * 9 + g] = 1.0);
+            Tensor::from_data(TensorData::new(v, [n, 9]), &device)
+        }),
+        lengths: Some(lens.clone()),
+    };
+    let out: Vec<f32> = trained
+        .model
+        .forward(
+            Tensor::<3>::from_data(TensorData::new(base, [n, t, w]), &device),
+            &cond,
+        )
+        .into_data()
+        .try_to_vec::<f32>()
+        .map_err(|e| Error::Invalid(format!("in-betweener output: {e:?}")))?;
+    let mut result = rows.clone();
+    for (i, s) in segments.iter().enumerate() {
+        for f in s.a..=s.b {
+            if s.keys.binary_search(&f).is_err() {
+                let src = &out[(i * t + f - s.a) * w..(i * t + f - s.a + 1) * w];
+                result[f * w..(f + 1) * w].copy_from_slice(src);
+            }
+        }
+    }
+    // Rotations projected to SO(3) on the way back; translations in the input's units.
+    let rebuilt = Motion::from_layout(&result, Layout::L225).map_err(Error::Invalid)?;
+    let mut out_motion = motion.clone();
+    for s in segments {
+        for f in s.a..=s.b {
+            if s.keys.binary_search(&f).is_err() {
+                out_motion.poses[f * 72..(f + 1) * 72]
+                    .copy_from_slice(&rebuilt.poses[f * 72..(f + 1) * 72]);
+                for k in 0..3 {
+                    out_motion.trans[f * 3 + k] = rebuilt.trans[f * 3 + k] * motion.scaling;
+                }
+            }
+        }
+    }
+    Ok(out_motion)
+}
+
+/// Segments from keyframes over measures: each measure [a, b] with the keys inside it.
+pub fn measure_segments(measures: &[(usize, usize)], keys: &[usize]) -> Vec<Segment> {
+    measures
+        .iter()
+        .map(|&(a, b)| {
+            let mut k: Vec<usize> = keys.iter().copied().filter(|&f| a <= f && f <= b).collect();
+            k.extend([a, b]);
+            k.sort_unstable();
+            k.dedup();
+            Segment { a, b, keys: k }
+        })
+        .collect()
+}
