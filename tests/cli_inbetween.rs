@@ -266,7 +266,7 @@ fn tiny_in_betweeners_train_and_resume_exactly() {
     .arg(&ib);
     let md = run_ok(&mut c);
     assert!(md.contains("| even / motion ("), "{md}");
-    // The drums variants need stem features that training does not compute yet: one clear line.
+    // The drums variants read the drums stem: a stems file per music ID (default), or HPSS.
     let mut c = qean();
     c.args(["train", "--config"])
         .arg(configs().join("inbetween/tiny_cross_drum.toml"))
@@ -274,5 +274,27 @@ fn tiny_in_betweeners_train_and_resume_exactly() {
         .arg(&data)
         .arg("--run-dir")
         .arg(dir.path().join("drum"));
-    assert_clean_failure(&mut c, "drums stem");
+    assert_clean_failure(&mut c, "drums.wav: drums stem missing");
+    assert!(!dir.path().join("drum").exists());
+    let mut c = qean();
+    c.args(["train", "--plain", "--config"])
+        .arg(configs().join("inbetween/tiny_merged_drum.toml"))
+        .arg("--data")
+        .arg(&data)
+        .arg("--run-dir")
+        .arg(dir.path().join("drum_hpss"));
+    for s in [
+        "train.steps=2",
+        "train.batch_size=4",
+        "inbetween.drums=hpss",
+        "inbetween.hidden=16",
+        "inbetween.heads=2",
+        "inbetween.ffn=32",
+        "inbetween.layers=1",
+        "inbetween.audio_layers=1",
+    ] {
+        c.arg("--set").arg(s);
+    }
+    run_ok(&mut c);
+    assert!(!checkpoints(&dir.path().join("drum_hpss")).is_empty());
 }

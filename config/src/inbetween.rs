@@ -81,6 +81,17 @@ pub enum Base {
     ElementwiseLerp,
 }
 
+/// Where the drums variants' stem comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DrumSource {
+    /// `<data>/stems/<music ID>/drums.wav` (e.g. OpenUnmix's output, as Lin).
+    #[default]
+    Files,
+    /// librosa's HPSS percussive part of the full mix (no separation model needed).
+    Hpss,
+}
+
 /// Attention score scale.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -118,6 +129,8 @@ pub struct InbetweenConfig {
     pub train_keys: usize,
     /// Draw N from {3, 5, 9} per window instead of `train_keys` (for edits with other key counts).
     pub mixed_keys: bool,
+    /// The drums stem of `cross_drum` / `merged_drum`.
+    pub drums: DrumSource,
 }
 
 impl Default for InbetweenConfig {
@@ -143,6 +156,7 @@ impl InbetweenConfig {
             base: Base::Slerp,
             train_keys: 5,
             mixed_keys: false,
+            drums: DrumSource::Files,
         }
     }
 

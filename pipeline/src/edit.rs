@@ -205,6 +205,24 @@ pub fn anchor_windows(
     Ok(out)
 }
 
+/// The 35-D rows a music-reading in-betweener needs: the full mix's, or its drums stem's.
+fn model_music(trained: Option<&Trained>, req: &EditRequest) -> Result<Option<Vec<f32>>> {
+    Ok(match (trained, &req.music) {
+        (Some(t), music) if t.config.variant.drums() => {
+            Some(qean_train::inbetween::drums_features(
+                music.as_deref(),
+                req.stems.as_deref(),
+                t.config.drums,
+                120.0,
+            )?)
+        }
+        (Some(t), Some(music)) if t.config.variant.has_audio() => {
+            Some(qean_audio::features::features_for_file(music, &Default::default())?.data)
+        }
+        _ => None,
+    })
+}
+
 /// Run an edit; returns the report (already written beside the output).
 pub fn edit(req: &EditRequest) -> Result<EditReport> {
     req.options
@@ -246,12 +264,7 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
         }
         _ => None,
     };
-    let features = match (&trained, &req.music) {
-        (Some(t), Some(music)) if t.config.variant.has_audio() => {
-            Some(qean_audio::features::features_for_file(music, &Default::default())?.data)
-        }
-        _ => None,
-    };
+    let features = model_music(trained.as_ref(), req)?;
     let genre = req.genre.clone().or_else(|| {
         req.motion
             .file_stem()

@@ -175,12 +175,45 @@ fn selection_of(
     Ok(select_keyframes_of(motion, &k)?.selection)
 }
 
-/// The 35-D features of the test sequences' music IDs (from the dataset's feature cache).
-fn test_features(ds: &Dataset, names: &[String]) -> Result<HashMap<String, Vec<f32>>> {
+/// The music the trained in-betweeners read: (full-mix features, drums-stem features) per music ID, each
+/// empty when no model needs it.
+type MusicMaps = (HashMap<String, Vec<f32>>, HashMap<String, Vec<f32>>);
+
+fn music_for(trained: &[Trained], ds: &Dataset, names: &[String]) -> Result<MusicMaps> {
+    let full = if trained
+        .iter()
+        .any(|t| t.config.variant.has_audio() && !t.config.variant.drums())
+    {
+        test_features(ds, names, None)?
+    } else {
+        HashMap::new()
+    };
+    let drums = match trained.iter().find(|t| t.config.variant.drums()) {
+        Some(t) => test_features(ds, names, Some(t.config.drums))?,
+        None => HashMap::new(),
+    };
+    Ok((full, drums))
+}
+
+/// The 35-D features of the test sequences' music IDs: the full mix's (the dataset's feature cache), or
+/// their drums stems' (`drums`).
+fn test_features(
+    ds: &Dataset,
+    names: &[String],
+    drums: Option<qean_config::inbetween::DrumSource>,
+) -> Result<HashMap<String, Vec<f32>>> {
     qean_train::data::ensure_features(ds, names)?;
     let mut out = HashMap::new();
     for id in Dataset::music_ids(names) {
-        let (data, _) = qean_aistpp::feature_cache::load(ds, &id)?;
+        let data = match drums {
+            None => qean_aistpp::feature_cache::load(ds, &id)?.0,
+            Some(source) => qean_train::inbetween::drums_features(
+                ds.audio_path(&id).as_deref(),
+                Some(&ds.root.join("stems").join(&id)),
+                source,
+                qean_aistpp::names::start_bpm(&id),
+            )?,
+        };
         out.insert(id, data);
     }
     Ok(out)
@@ -344,11 +377,7 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
         .iter()
         .map(|r| Trained::load(r))
         .collect::<Result<Vec<_>>>()?;
-    let features = if trained.iter().any(|t| t.config.variant.has_audio()) {
-        test_features(&ds, &test.names)?
-    } else {
-        HashMap::new()
-    };
+    let (features, drum_features) = music_for(&trained, &ds, &test.names)?;
     let mut cells: Vec<(Strategy, IbMethod, Option<&Trained>)> =
         req.rows.iter().map(|&(s, m)| (s, m, None)).collect();
     cells.extend(
@@ -378,7 +407,10 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
                 n,
                 mean,
                 trained,
-                features: &features,
+                features: match trained {
+                    Some(t) if t.config.variant.drums() => &drum_features,
+                    _ => &features,
+                },
             };
             let (row, report) = score(&ds, req, &test, &reference, &lookup, &cell)?;
             gt.get_or_insert((report.gt_div_k, report.gt_div_g, report.gt_beat_align));

@@ -33,12 +33,6 @@ impl Trained {
             )));
         }
         let config = checkpoint.config.inbetween();
-        if config.variant.drums() {
-            return Err(Error::Invalid(format!(
-                "{}: the drums variants need stem features that inference does not compute yet",
-                checkpoint.dir.display()
-            )));
-        }
         let model = qean_train::family::load_checkpoint_model(
             &InbetweenFamily,
             &checkpoint,
@@ -64,7 +58,8 @@ impl Trained {
 
 /// What a rebuild reads besides the motion.
 pub struct Context<'a> {
-    /// The music's 35-D features (frames × 35), aligned with the motion; needed by the music variants.
+    /// The music's 35-D features (frames × 35), aligned with the motion; needed by the music variants (for
+    /// the drums variants, the drums stem's features).
     pub features: Option<&'a [f32]>,
     /// The dance's genre code (BR, PO, …); needed by the genre variant.
     pub genre: Option<&'a str>,

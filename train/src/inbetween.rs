@@ -25,6 +25,70 @@ use rand::{Rng, SeedableRng};
 
 use crate::family::{Family, StepContext};
 
+/// The 35-D features of a track's drums stem (M_full_drums of §12.4c comes from its columns): the stem file
+/// `<stems>/drums.wav`, or librosa's HPSS percussive part of the full mix.
+pub fn drums_features(
+    music: Option<&std::path::Path>,
+    stems: Option<&std::path::Path>,
+    source: qean_config::inbetween::DrumSource,
+    start_bpm: f64,
+) -> Result<Vec<f32>> {
+    use qean_config::inbetween::DrumSource;
+    let opts = qean_audio::FeatureOptions::with_start_bpm(start_bpm);
+    let samples = match (source, stems, music) {
+        (DrumSource::Files, Some(dir), _) => {
+            let path = dir.join("drums.wav");
+            if !path.is_file() {
+                return Err(Error::at(
+                    &path,
+                    "drums stem missing (inbetween.drums = \"files\"; or --set inbetween.drums=hpss)",
+                ));
+            }
+            return Ok(qean_audio::features_for_file(&path, &opts)?.data);
+        }
+        (DrumSource::Files, None, _) => {
+            return Err(Error::msg(
+                "the drums in-betweeners need a stems directory (or --set inbetween.drums=hpss)",
+            ))
+        }
+        (DrumSource::Hpss, _, Some(m)) => {
+            qean_audio::hpss::percussive(&qean_audio::load_audio(m, &Default::default())?.samples)
+        }
+        (DrumSource::Hpss, _, None) => {
+            return Err(Error::msg("the drums in-betweeners need the music"))
+        }
+    };
+    Ok(qean_audio::music_features(&samples, &opts)?.data)
+}
+
+/// Every sequence's music replaced by its drums stem's features (computed once per music ID).
+fn with_drums(mut set: SequenceSet, dataset: &Dataset, c: &InbetweenConfig) -> Result<SequenceSet> {
+    let mut done: std::collections::HashMap<String, Arc<Vec<f32>>> = Default::default();
+    for seq in &mut set.sequences {
+        let id = qean_aistpp::names::music_id_of(&seq.name)
+            .ok_or_else(|| Error::msg(format!("{}: no AIST++ music ID in the name", seq.name)))?;
+        if !done.contains_key(&id) {
+            let music = dataset.audio_path(&id);
+            let stems = dataset.root.join("stems").join(&id);
+            let bpm = qean_aistpp::names::start_bpm(&id);
+            tracing::info!("drums stem features of {id} ({:?})", c.drums);
+            done.insert(
+                id.clone(),
+                Arc::new(drums_features(
+                    music.as_deref(),
+                    Some(&stems),
+                    c.drums,
+                    bpm,
+                )?),
+            );
+        }
+        let rows = done[&id].clone();
+        seq.audio_frames = rows.len() / 35;
+        seq.audio = rows;
+    }
+    Ok(set)
+}
+
 /// The in-betweener family (no state beyond the run config).
 #[derive(Debug, Clone, Default)]
 pub struct InbetweenFamily;
@@ -268,20 +332,17 @@ impl Family for InbetweenFamily {
         config: &RunConfig,
     ) -> Result<SequenceSet> {
         let c = config_of(config);
-        if c.variant.drums() {
-            return Err(Error::msg(format!(
-                "inbetween.variant = \"{}\" needs the drums stem's features, which training does not compute yet; \
-                 use motion, genre, cross_full or merged_full",
-                c.variant.name()
-            )));
-        }
         let one = WindowSpec {
             motion_len: 1,
             target_len: 1,
             target_shift: 0,
             audio_len: 1,
         };
-        let whole = crate::data::load_split(dataset, split, config.layout(), one, &config.recipe)?;
+        let mut whole =
+            crate::data::load_split(dataset, split, config.layout(), one, &config.recipe)?;
+        if c.variant.drums() {
+            whole = with_drums(whole, dataset, c)?;
+        }
         measure_windows(whole, c)
     }
 
