@@ -209,6 +209,14 @@ fn tiny_in_betweeners_train_and_resume_exactly() {
         let run = dir.path().join(variant);
         train(variant, &run, 2, false);
         assert!(!checkpoints(&run).is_empty(), "{variant}");
+        // Music variants standardise the 22 music columns with statistics fitted once on the training split.
+        let config =
+            std::fs::read_to_string(checkpoints(&run).last().unwrap().join("config.toml")).unwrap();
+        assert_eq!(
+            !config.contains("music_mean = []"),
+            variant != "genre",
+            "{variant}"
+        );
     }
     // The trained model at work: an edit (frames outside the range untouched) and a benchmark row.
     let motion_path = std::fs::read_dir(data.join("motions"))

@@ -92,6 +92,18 @@ pub enum DrumSource {
     Hpss,
 }
 
+/// How the 22 music columns are scaled before the music encoder.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MusicNorm {
+    /// Per column (x − mean)/SD over the training split's music, fitted once ([DECISION]: raw MFCCs reach
+    /// the hundreds, and the encoder output enters the motion stream without a LayerNorm).
+    #[default]
+    Standardize,
+    /// Raw feature values.
+    None,
+}
+
 /// Attention score scale.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -131,6 +143,11 @@ pub struct InbetweenConfig {
     pub mixed_keys: bool,
     /// The drums stem of `cross_drum` / `merged_drum`.
     pub drums: DrumSource,
+    pub music_norm: MusicNorm,
+    /// Per-column mean and SD of the 22 music columns (filled by the trainer from the training split when
+    /// `music_norm = "standardize"`; kept by resume and used at inference).
+    pub music_mean: Vec<f64>,
+    pub music_std: Vec<f64>,
 }
 
 impl Default for InbetweenConfig {
@@ -140,6 +157,15 @@ impl Default for InbetweenConfig {
 }
 
 impl InbetweenConfig {
+    /// Scale one row of the 22 music columns as the model was trained (`music_norm`).
+    pub fn normalise_music(&self, row: &mut [f32]) {
+        if self.music_norm == MusicNorm::Standardize && self.music_mean.len() == row.len() {
+            for (k, v) in row.iter_mut().enumerate() {
+                *v = ((*v as f64 - self.music_mean[k]) / self.music_std[k]) as f32;
+            }
+        }
+    }
+
     /// `ib_paper` (Lin App. A): d 800, 10 heads, FFN 3072, 4 layers (+4 in the music encoder), dropout 0.1.
     pub fn paper() -> Self {
         InbetweenConfig {
@@ -157,6 +183,9 @@ impl InbetweenConfig {
             train_keys: 5,
             mixed_keys: false,
             drums: DrumSource::Files,
+            music_norm: MusicNorm::Standardize,
+            music_mean: Vec::new(),
+            music_std: Vec::new(),
         }
     }
 
@@ -201,6 +230,17 @@ impl InbetweenConfig {
                 "inbetween.dropout must be in [0, 1), got {}",
                 self.dropout
             ));
+        }
+        let stats = [self.music_mean.len(), self.music_std.len()];
+        if stats != [0, 0] && stats != [22, 22] {
+            return Err(
+                "inbetween.music_mean and music_std must hold 22 values each (or none)".into(),
+            );
+        }
+        if self.music_std.iter().any(|s| !(s.is_finite() && *s > 0.0))
+            || self.music_mean.iter().any(|m| !m.is_finite())
+        {
+            return Err("inbetween.music_mean/music_std must be finite, with every SD > 0".into());
         }
         if self.train_keys < 2 {
             return Err("inbetween.train_keys must be at least 2".into());

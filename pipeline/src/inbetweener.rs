@@ -132,7 +132,9 @@ pub fn rebuild(
             for i in 0..t {
                 // Past the music's end (or the segment's), its last row.
                 let r = (s.a + i.min(len - 1)).min(frames.saturating_sub(1));
-                music.extend(music_columns(&f[r * 35..(r + 1) * 35]));
+                let mut m = music_columns(&f[r * 35..(r + 1) * 35]);
+                c.normalise_music(&mut m);
+                music.extend(m);
             }
         }
     }

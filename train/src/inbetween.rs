@@ -149,7 +149,15 @@ pub fn measure_windows(whole: SequenceSet, c: &InbetweenConfig) -> Result<Sequen
                     seq.name
                 ))
             })?;
-        let music: Vec<f32> = seq.audio.chunks_exact(ad).flat_map(music_columns).collect();
+        let music: Vec<f32> = seq
+            .audio
+            .chunks_exact(ad)
+            .flat_map(|r| {
+                let mut m = music_columns(r);
+                c.normalise_music(&mut m);
+                m
+            })
+            .collect();
         for (a, b) in segments(seq.frames(), bpm, Rounding::Cumulative, Boundary::Shared, 0) {
             let len = b - a + 1;
             if len < 2 {
@@ -311,9 +319,84 @@ pub fn residual_loss(model: &Inbetweener, inputs: IbInputs) -> Tensor<1> {
         .div_scalar((inputs.valid_frames * MOTION_DIM) as f64)
 }
 
+/// Mean and SD of the 22 music columns over every frame of the training split's music (each music ID once;
+/// the drums stem's for the drums variants). A constant column gets SD 1.
+fn music_stats(
+    dataset: &Dataset,
+    split: Split,
+    c: &InbetweenConfig,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let names = dataset.split(split);
+    crate::data::ensure_features(dataset, &names)?;
+    let (mut sum, mut sq, mut n) = ([0.0f64; MUSIC_DIM], [0.0f64; MUSIC_DIM], 0usize);
+    for id in Dataset::music_ids(&names) {
+        let data = if c.variant.drums() {
+            let stems = dataset.root.join("stems").join(&id);
+            let bpm = qean_aistpp::names::start_bpm(&id);
+            drums_features(
+                dataset.audio_path(&id).as_deref(),
+                Some(&stems),
+                c.drums,
+                bpm,
+            )?
+        } else {
+            qean_aistpp::feature_cache::load(dataset, &id)?.0
+        };
+        for row in data.chunks_exact(35) {
+            for (k, &x) in music_columns(row).iter().enumerate() {
+                sum[k] += x as f64;
+                sq[k] += (x as f64) * (x as f64);
+            }
+            n += 1;
+        }
+    }
+    let n = n.max(1) as f64;
+    let mean: Vec<f64> = sum.iter().map(|s| s / n).collect();
+    let std = sq
+        .iter()
+        .zip(&mean)
+        .map(|(q, m)| (q / n - m * m).max(0.0).sqrt())
+        .map(|v| if v > 1e-8 { v } else { 1.0 })
+        .collect();
+    Ok((mean, std))
+}
+
 impl Family for InbetweenFamily {
     type Model = Inbetweener;
     type Inputs = IbInputs;
+
+    /// The music statistics of `music_norm = "standardize"`: a resumed run's from its checkpoint, a
+    /// config's own when it names them, else fitted on the training split; written into the run config.
+    fn prepare(
+        &mut self,
+        config: &mut RunConfig,
+        dataset: &Dataset,
+        train: Split,
+        resume: Option<&crate::checkpoint::Checkpoint>,
+    ) -> Result<()> {
+        let c = config
+            .inbetween
+            .as_mut()
+            .ok_or_else(|| Error::msg("model.arch = \"inbetween\" needs an [inbetween] table"))?;
+        if !c.variant.has_audio() || c.music_norm != qean_config::inbetween::MusicNorm::Standardize
+        {
+            return Ok(());
+        }
+        if let Some(ck) = resume {
+            let saved = ck.config.inbetween();
+            c.music_mean = saved.music_mean;
+            c.music_std = saved.music_std;
+        } else if c.music_mean.is_empty() {
+            let (mean, std) = music_stats(dataset, train, c)?;
+            tracing::info!(
+                "music statistics fitted on the {} split (22 columns)",
+                train.name()
+            );
+            c.music_mean = mean;
+            c.music_std = std;
+        }
+        c.validate().map_err(Error::msg)
+    }
 
     fn init(&self, config: &RunConfig, device: &Device) -> Inbetweener {
         Inbetweener::new(config_of(config), device)
