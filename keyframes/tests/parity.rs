@@ -171,3 +171,45 @@ fn nmfd_equals_libnmfd() {
         assert!(w[1] <= w[0] * (1.0 + 1e-12), "{:?}", out.cost);
     }
 }
+
+#[test]
+fn onset_detect_on_the_envelope_is_column_33() {
+    // SPEC §12.3b: with the default picker, the peaks of M_onset (column 0) are column 33's onsets. The
+    // librosa 0.8.1 feature fixtures of qean-audio carry both.
+    use qean_keyframes::onset_keys::{peaks, PeakPicker};
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../audio/tests/fixtures");
+    for name in ["vibe_ace_wav_feat35.npy", "brahms_wav_feat35.npy"] {
+        let a = qean_io::npy::read(&dir.join(name)).unwrap();
+        let frames = a.shape[0];
+        let env: Vec<f64> = (0..frames).map(|t| a.data[t * 35]).collect();
+        let want: Vec<usize> = (0..frames)
+            .filter(|&t| a.data[t * 35 + 33] != 0.0)
+            .collect();
+        assert!(want.len() > 10, "{name}");
+        assert_eq!(peaks(&env, PeakPicker::OnsetDetect), want, "{name}");
+    }
+}
+
+#[test]
+fn bezier_training_mean_is_deterministic_and_keys_stay_exact() {
+    use qean_keyframes::bezier::{inbetween, BezierSettings, MeanTheta, ThetaSource};
+    let m = excerpt();
+    let keys = [0, 30, 60, 90, 120];
+    let settings = BezierSettings::default();
+    let fit = || {
+        let mut t = MeanTheta::default();
+        t.add(&m, &keys, &settings);
+        t.add(&m, &[0, 40, 80, 120], &settings);
+        t
+    };
+    assert_eq!(fit(), fit());
+    let mean = fit();
+    let out = inbetween(&m, &keys, ThetaSource::Mean(&mean), &settings);
+    for &k in &keys {
+        assert_eq!(
+            out.poses[k * 72..(k + 1) * 72],
+            m.poses[k * 72..(k + 1) * 72]
+        );
+        assert_eq!(out.trans[k * 3..(k + 1) * 3], m.trans[k * 3..(k + 1) * 3]);
+    }
+}

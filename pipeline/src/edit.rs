@@ -278,8 +278,14 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
             features: features.as_deref(),
             genre: genre.as_deref(),
         };
-        rebuild(t, edited, &anchor_windows(anchors, t.config.max_len)?, &ctx)
-            .map_err(|e| e.to_string())
+        rebuild(
+            &t.model,
+            &t.config,
+            edited,
+            &anchor_windows(anchors, t.config.max_len)?,
+            &ctx,
+        )
+        .map_err(|e| e.to_string())
     };
     let method = match (&theta, &trained) {
         (_, Some(_)) => Method::Learnt(&learnt),

@@ -284,7 +284,8 @@ fn score(
                     genre: name.get(1..3),
                 };
                 rebuild(
-                    trained,
+                    &trained.model,
+                    &trained.config,
                     motion,
                     &measure_segments(&selection.segments, &keys),
                     &ctx,

@@ -77,12 +77,12 @@ pub struct Segment {
 /// Rebuild `segments` of `motion`: every segment in one padded batch, Ŷ = B + f(·), keys clamped, rotations
 /// projected. Frames outside the segments and the keys are the input's, bit for bit.
 pub fn rebuild(
-    trained: &Trained,
+    model: &Inbetweener,
+    c: &InbetweenConfig,
     motion: &Motion,
     segments: &[Segment],
     ctx: &Context,
 ) -> Result<Motion> {
-    let c = &trained.config;
     let device = Device::flex();
     let rows = motion.to_layout(Layout::L225);
     let w = MOTION_DIM;
@@ -149,8 +149,7 @@ pub fn rebuild(
         }),
         lengths: Some(lens.clone()),
     };
-    let out: Vec<f32> = trained
-        .model
+    let out: Vec<f32> = model
         .forward(
             Tensor::<3>::from_data(TensorData::new(base, [n, t, w]), &device),
             &cond,
@@ -196,4 +195,52 @@ pub fn measure_segments(measures: &[(usize, usize)], keys: &[usize]) -> Vec<Segm
             Segment { a, b, keys: k }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_are_clamped_and_frames_outside_untouched() {
+        let m = Motion::read_pkl(
+            &qean_io::testdata::shared_dir()
+                .join("aistpp/motions/softcat477_sample_with_scaling.pkl"),
+        )
+        .unwrap();
+        let c = InbetweenConfig {
+            dropout: 0.0,
+            ..InbetweenConfig::tiny()
+        };
+        let device = Device::flex();
+        device.seed(11);
+        let mut model = Inbetweener::new(&c, &device);
+        // A large output layer, so the prediction moves far from the base.
+        model.output.weight = model.output.weight.map(|w| w.mul_scalar(50.0));
+        let keys = vec![10, 40, 70, 100];
+        let seg = [Segment {
+            a: 10,
+            b: 100,
+            keys: keys.clone(),
+        }];
+        let ctx = Context {
+            features: None,
+            genre: None,
+        };
+        let out = rebuild(&model, &c, &m, &seg, &ctx).unwrap();
+        for t in (0..=10).chain(40..=40).chain(70..=70).chain(100..m.frames) {
+            assert_eq!(
+                out.poses[t * 72..(t + 1) * 72],
+                m.poses[t * 72..(t + 1) * 72],
+                "frame {t}"
+            );
+            assert_eq!(out.trans[t * 3..(t + 1) * 3], m.trans[t * 3..(t + 1) * 3]);
+        }
+        assert_ne!(out.poses[55 * 72..56 * 72], m.poses[55 * 72..56 * 72]);
+        // Projected rotations: every axis-angle has an angle within [0, π].
+        for r in out.poses.chunks_exact(3) {
+            let angle = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+            assert!(angle.is_finite() && angle <= std::f64::consts::PI + 1e-9);
+        }
+    }
 }
