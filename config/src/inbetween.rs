@@ -104,6 +104,16 @@ pub enum MusicNorm {
     None,
 }
 
+/// The MLP's activation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MlpAct {
+    /// §4.1's tanh-GELU ([DECISION]: App. A's "softmax" read as the attention softmax).
+    #[default]
+    Gelu,
+    Relu,
+}
+
 /// Attention score scale.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -144,6 +154,8 @@ pub struct InbetweenConfig {
     /// The drums stem of `cross_drum` / `merged_drum`.
     pub drums: DrumSource,
     pub music_norm: MusicNorm,
+    /// The MLP activation (`ib_mlp_act`).
+    pub mlp_act: MlpAct,
     /// Per-column mean and SD of the 22 music columns (filled by the trainer from the training split when
     /// `music_norm = "standardize"`; kept by resume and used at inference).
     pub music_mean: Vec<f64>,
@@ -184,6 +196,7 @@ impl InbetweenConfig {
             mixed_keys: false,
             drums: DrumSource::Files,
             music_norm: MusicNorm::Standardize,
+            mlp_act: MlpAct::Gelu,
             music_mean: Vec::new(),
             music_std: Vec::new(),
         }

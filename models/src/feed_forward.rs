@@ -16,6 +16,9 @@ pub struct FeedForwardConfig {
     pub hidden: usize,
     /// Inner width F.
     pub inner: usize,
+    /// ReLU instead of the tanh-GELU (the in-betweeners' `mlp_act = "relu"`).
+    #[config(default = false)]
+    pub relu: bool,
 }
 
 /// Two dense layers with a tanh-approximated GELU between them.
@@ -25,6 +28,7 @@ pub struct FeedForward {
     pub expand: Linear,
     /// Dense(F → C).
     pub contract: Linear,
+    relu: bool,
 }
 
 impl FeedForwardConfig {
@@ -33,6 +37,7 @@ impl FeedForwardConfig {
         FeedForward {
             expand: glorot_dense(self.hidden, self.inner, true, device),
             contract: glorot_dense(self.inner, self.hidden, true, device),
+            relu: self.relu,
         }
     }
 }
@@ -40,7 +45,13 @@ impl FeedForwardConfig {
 impl FeedForward {
     /// x [B, N, C] → [B, N, C].
     pub fn forward(&self, x: Tensor<3>) -> Tensor<3> {
-        self.contract.forward(gelu_tanh(self.expand.forward(x)))
+        let h = self.expand.forward(x);
+        let h = if self.relu {
+            burn::tensor::activation::relu(h)
+        } else {
+            gelu_tanh(h)
+        };
+        self.contract.forward(h)
     }
 }
 

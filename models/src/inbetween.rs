@@ -169,7 +169,9 @@ impl Layer {
             cross_norm: cross.then(|| layer_norm(c.hidden, device)),
             cross: cross.then(|| CrossAttention::new(c, device)),
             mlp_norm: layer_norm(c.hidden, device),
-            mlp: FeedForwardConfig::new(c.hidden, c.ffn).init(device),
+            mlp: FeedForwardConfig::new(c.hidden, c.ffn)
+                .with_relu(c.mlp_act == qean_config::inbetween::MlpAct::Relu)
+                .init(device),
             dropout: DropoutConfig::new(c.dropout).init(),
         }
     }
@@ -405,6 +407,11 @@ mod tests {
             assert_eq!(inbetween_params(&p), paper);
             assert_eq!(inbetween_params(&t), tiny);
         }
+        let relu = InbetweenConfig {
+            mlp_act: qean_config::inbetween::MlpAct::Relu,
+            ..InbetweenConfig::tiny()
+        };
+        assert_eq!(count(&relu), 111_009);
         let cross_only = InbetweenConfig {
             variant: Variant::CrossFull,
             decoder: Decoder::CrossOnly,
