@@ -431,6 +431,7 @@ fn run_inbetween(args: &Args) -> anyhow::Result<String> {
         options: settings.keyframes,
         bezier: settings.bezier,
         mse_space: settings.mse_space,
+        fid_reference: settings.fid_reference,
         include_jb: args.include_jb,
         stems: args.stems.clone(),
         root: args.fk_root.fk(),

@@ -12,6 +12,7 @@ pub struct Settings {
     pub keyframes: KeyframeOptions,
     pub bezier: BezierSettings,
     pub mse_space: MseSpace,
+    pub fid_reference: qean_pipeline::inbetween::FidReference,
 }
 
 fn first_line(e: impl std::fmt::Display) -> String {
@@ -47,8 +48,12 @@ pub fn parse(sets: &[String]) -> anyhow::Result<Settings> {
                     "bezier_param" => s.bezier.param = BezierParam::deserialize(value).map_err(bad)?,
                     "bezier_average" => s.bezier.average = BezierAverage::deserialize(value).map_err(bad)?,
                     "mse_space" => s.mse_space = MseSpace::deserialize(value).map_err(bad)?,
+                    "fid_reference" => {
+                        s.fid_reference =
+                            qean_pipeline::inbetween::FidReference::deserialize(value).map_err(bad)?
+                    }
                     other => anyhow::bail!(
-                        "--set {spec}: unknown [inbetween] setting {other:?} (bezier_param, bezier_average, mse_space)"
+                        "--set {spec}: unknown [inbetween] setting {other:?} (bezier_param, bezier_average, mse_space, fid_reference)"
                     ),
                 }
             }

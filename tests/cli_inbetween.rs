@@ -109,6 +109,17 @@ fn bad_benchmark_requests_fail_cleanly() {
         ]),
         "mse_space",
     );
+    assert_clean_failure(
+        &mut ib(&[
+            "--out",
+            out_s,
+            "--data",
+            missing.to_str().unwrap(),
+            "--set",
+            "inbetween.fid_reference=nowhere",
+        ]),
+        "fid_reference",
+    );
     assert!(!out.exists());
 }
 

@@ -56,6 +56,18 @@ impl IbMethod {
     }
 }
 
+/// The set FID and Dist compare the rebuilt dances with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FidReference {
+    /// The originals of the same test + val sequences (Lin: "how close a set of reconstructed dances is
+    /// to a set of original dances").
+    #[default]
+    Same,
+    /// Every non-ignored sequence of the dataset (the 1363 of AIST++).
+    All,
+}
+
 /// Lin's rows without the learnt in-betweeners: Exp. 1 (even × linear/Bézier, DP × Bézier fitted per
 /// sequence, plus DP × linear for Tables 4.1–4.3) and Exp. 2 (music keys × linear).
 pub fn default_rows() -> Vec<(Strategy, IbMethod)> {
@@ -80,6 +92,7 @@ pub struct InbetweenRequest {
     pub options: KeyframeOptions,
     pub bezier: BezierSettings,
     pub mse_space: MseSpace,
+    pub fid_reference: FidReference,
     /// Keep Ballet Jazz (Lin drops it: its drums stem is silent).
     pub include_jb: bool,
     /// Stems as `<stems>/<music ID>/{drums,bass,vocals,other}.wav` (`stem_source = "files"`); default
@@ -114,6 +127,7 @@ pub struct InbetweenReport {
     pub data: String,
     pub sequences: Vec<String>,
     pub mse_space: MseSpace,
+    pub fid_reference: FidReference,
     pub rows: Vec<Row>,
     pub gt_dist_k: f64,
     pub gt_dist_g: f64,
@@ -353,12 +367,22 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
     } else {
         None
     };
-    let reference: Vec<Sequence> = test
-        .names
-        .iter()
-        .zip(&test.motions)
-        .map(|(n, m)| joints_sequence(n, m, req.root))
-        .collect();
+    let reference: Vec<Sequence> = match req.fid_reference {
+        FidReference::Same => test
+            .names
+            .iter()
+            .zip(&test.motions)
+            .map(|(n, m)| joints_sequence(n, m, req.root))
+            .collect(),
+        FidReference::All => {
+            let all = load(&ds, &[Split::Train, Split::Val, Split::Test], true)?;
+            all.names
+                .iter()
+                .zip(&all.motions)
+                .map(|(n, m)| joints_sequence(n, m, req.root))
+                .collect()
+        }
+    };
     let wav = req.data.join("wav");
     let beats = music_beats(
         &wav,
@@ -427,6 +451,7 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
         data: req.data.display().to_string(),
         sequences: test.names.clone(),
         mse_space: req.mse_space,
+        fid_reference: req.fid_reference,
         checks: checks(&rows),
         rows,
         gt_dist_k,
@@ -669,10 +694,14 @@ pub fn markdown(r: &InbetweenReport) -> String {
     ns.dedup();
     let mut s = format!(
         "# In-betweening benchmark (Lin 2022, SPEC §12.5)\n\nData: {} — {} test + val sequences at full length, \
-         reconstructed from N keys per measure and scored against the same originals. MSE in `{}` space \
+         reconstructed from N keys per measure and scored against {}. MSE in `{}` space \
          (per sequence, then averaged); FID and Dist as §7 (reference mode).\n\n",
         r.data,
         r.sequences.len(),
+        match r.fid_reference {
+            FidReference::Same => "the same originals",
+            FidReference::All => "every sequence of the dataset (fid_reference = all)",
+        },
         serde_json::to_value(r.mse_space).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
     );
     s += "| keys / in-between |";
