@@ -209,6 +209,21 @@ fn music_for(trained: &[Trained], ds: &Dataset, names: &[String]) -> Result<Musi
     Ok((full, drums))
 }
 
+/// The FID/Dist reference: the test dances' originals, or every sequence (`fid_reference = all`).
+fn reference_set(req: &InbetweenRequest, ds: &Dataset, test: &Loaded) -> Result<Vec<Sequence>> {
+    let set = match req.fid_reference {
+        FidReference::Same => None,
+        FidReference::All => Some(load(ds, &[Split::Train, Split::Val, Split::Test], true)?),
+    };
+    let from = set.as_ref().unwrap_or(test);
+    Ok(from
+        .names
+        .iter()
+        .zip(&from.motions)
+        .map(|(n, m)| joints_sequence(n, m, req.root))
+        .collect())
+}
+
 /// The 35-D features of the test sequences' music IDs: the full mix's (the dataset's feature cache), or
 /// their drums stems' (`drums`).
 fn test_features(
@@ -367,22 +382,7 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
     } else {
         None
     };
-    let reference: Vec<Sequence> = match req.fid_reference {
-        FidReference::Same => test
-            .names
-            .iter()
-            .zip(&test.motions)
-            .map(|(n, m)| joints_sequence(n, m, req.root))
-            .collect(),
-        FidReference::All => {
-            let all = load(&ds, &[Split::Train, Split::Val, Split::Test], true)?;
-            all.names
-                .iter()
-                .zip(&all.motions)
-                .map(|(n, m)| joints_sequence(n, m, req.root))
-                .collect()
-        }
-    };
+    let reference = reference_set(req, &ds, &test)?;
     let wav = req.data.join("wav");
     let beats = music_beats(
         &wav,
