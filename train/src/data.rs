@@ -59,32 +59,49 @@ pub fn load_split(
 pub fn audio_stats(ds: &Dataset, split: Split) -> Result<(Vec<f64>, Vec<f64>)> {
     let names = ds.split(split);
     ensure_features(ds, &names)?;
-    let mut sum = [0.0f64; AUDIO_DIM];
-    let mut sq = [0.0f64; AUDIO_DIM];
-    let mut n = 0usize;
+    let mut stats = ColumnStats::new(AUDIO_DIM);
     for id in Dataset::music_ids(&names) {
         let (data, _) = feature_cache::load(ds, &id)?;
-        for row in data.chunks_exact(AUDIO_DIM) {
-            for (k, &x) in row.iter().enumerate() {
-                sum[k] += x as f64;
-                sq[k] += (x as f64) * (x as f64);
-            }
-            n += 1;
+        data.chunks_exact(AUDIO_DIM).for_each(|row| stats.add(row));
+    }
+    Ok(stats.mean_std())
+}
+
+/// Running per-column sums of rows, for a mean and SD over every row added.
+pub struct ColumnStats {
+    sum: Vec<f64>,
+    sq: Vec<f64>,
+    n: usize,
+}
+
+impl ColumnStats {
+    pub fn new(width: usize) -> Self {
+        ColumnStats {
+            sum: vec![0.0; width],
+            sq: vec![0.0; width],
+            n: 0,
         }
     }
-    let n = n.max(1) as f64;
-    let mean: Vec<f64> = sum.iter().map(|s| s / n).collect();
-    let std = sq
-        .iter()
-        .zip(&mean)
-        .map(|(q, m)| {
-            let v = (q / n - m * m).max(0.0).sqrt();
-            if v > 1e-8 {
-                v
-            } else {
-                1.0
-            }
-        })
-        .collect();
-    Ok((mean, std))
+
+    pub fn add(&mut self, row: &[f32]) {
+        for (k, &x) in row.iter().enumerate() {
+            self.sum[k] += x as f64;
+            self.sq[k] += (x as f64) * (x as f64);
+        }
+        self.n += 1;
+    }
+
+    /// Per-column mean and SD; a constant column (SD ≤ 1e-8) gets SD 1.
+    pub fn mean_std(&self) -> (Vec<f64>, Vec<f64>) {
+        let n = self.n.max(1) as f64;
+        let mean: Vec<f64> = self.sum.iter().map(|s| s / n).collect();
+        let std = self
+            .sq
+            .iter()
+            .zip(&mean)
+            .map(|(q, m)| (q / n - m * m).max(0.0).sqrt())
+            .map(|v| if v > 1e-8 { v } else { 1.0 })
+            .collect();
+        (mean, std)
+    }
 }

@@ -328,7 +328,7 @@ fn music_stats(
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     let names = dataset.split(split);
     crate::data::ensure_features(dataset, &names)?;
-    let (mut sum, mut sq, mut n) = ([0.0f64; MUSIC_DIM], [0.0f64; MUSIC_DIM], 0usize);
+    let mut stats = crate::data::ColumnStats::new(MUSIC_DIM);
     for id in Dataset::music_ids(&names) {
         let data = if c.variant.drums() {
             let stems = dataset.root.join("stems").join(&id);
@@ -342,23 +342,10 @@ fn music_stats(
         } else {
             qean_aistpp::feature_cache::load(dataset, &id)?.0
         };
-        for row in data.chunks_exact(35) {
-            for (k, &x) in music_columns(row).iter().enumerate() {
-                sum[k] += x as f64;
-                sq[k] += (x as f64) * (x as f64);
-            }
-            n += 1;
-        }
+        data.chunks_exact(35)
+            .for_each(|row| stats.add(&music_columns(row)));
     }
-    let n = n.max(1) as f64;
-    let mean: Vec<f64> = sum.iter().map(|s| s / n).collect();
-    let std = sq
-        .iter()
-        .zip(&mean)
-        .map(|(q, m)| (q / n - m * m).max(0.0).sqrt())
-        .map(|v| if v > 1e-8 { v } else { 1.0 })
-        .collect();
-    Ok((mean, std))
+    Ok(stats.mean_std())
 }
 
 impl Family for InbetweenFamily {
