@@ -1,6 +1,7 @@
 //! `[inbetween]`: the transformer in-betweeners of Lin's thesis (SPEC §12.4c). Every [DECISION] of §12.4c is
 //! a key here (`--set inbetween.variant=genre`). Defaults are the `ib_paper` sizes of the `motion` variant.
 
+use crate::model::AttnScale;
 use serde::{Deserialize, Serialize};
 
 /// Which in-betweener (Lin's D_* labels).
@@ -114,17 +115,6 @@ pub enum MlpAct {
     Relu,
 }
 
-/// Attention score scale.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum IbScale {
-    /// 1/√d_head.
-    #[default]
-    Head,
-    /// 1/√d (mint's FACT quirk).
-    Hidden,
-}
-
 /// The `[inbetween]` table.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -144,7 +134,8 @@ pub struct InbetweenConfig {
     pub dropout: f64,
     /// Rows of each learned position table (240 ≥ the longest measure, 181 frames at 80 BPM).
     pub max_len: usize,
-    pub scale: IbScale,
+    /// Score scale: 1/√d_head (default) or mint's 1/√d.
+    pub scale: AttnScale,
     pub decoder: Decoder,
     pub base: Base,
     /// Keyframes per measure in training (even keys, §12.3a).
@@ -189,7 +180,7 @@ impl InbetweenConfig {
             audio_layers: 4,
             dropout: 0.1,
             max_len: 240,
-            scale: IbScale::Head,
+            scale: AttnScale::Head,
             decoder: Decoder::Standard,
             base: Base::Slerp,
             train_keys: 5,

@@ -130,6 +130,23 @@ pub fn attend(
     attend_block(q, k, v, scale, dropout)
 }
 
+/// softmax(q·kᵀ·scale + bias)·v per head, with dropout on the probabilities; `bias` broadcasts over the
+/// scores (e.g. [B, 1, 1, M] to mask padded keys).
+pub fn attend_biased(
+    q: Tensor<4>,
+    k: Tensor<4>,
+    v: Tensor<4>,
+    bias: Option<Tensor<4>>,
+    scale: f64,
+    dropout: &Dropout,
+) -> Tensor<4> {
+    let mut scores = q.mul_scalar(scale).matmul(k.swap_dims(2, 3));
+    if let Some(b) = bias {
+        scores = scores + b;
+    }
+    dropout.forward(softmax(scores, 3)).matmul(v)
+}
+
 /// The explicit softmax(q·kᵀ·scale)·v of one batch chunk.
 fn attend_block(
     q: Tensor<4>,
@@ -158,6 +175,25 @@ impl Attention {
         }
         let heads = attend(q, k, v, self.scale, &self.dropout);
         self.output.forward(merge_heads(heads))
+    }
+
+    /// [`Attention::forward`] without rotary positions and with an additive key bias [B, 1, 1, N] (0 for
+    /// valid keys, −1e9 for padding), computed with explicit ops (the in-betweeners' batches of unequal
+    /// segments).
+    pub fn forward_masked(&self, x: Tensor<3>, key_bias: Option<Tensor<4>>) -> Tensor<3> {
+        let [_, _, c] = x.dims();
+        let qkv = self.qkv.forward(x);
+        let q = split_heads(qkv.clone().narrow(2, 0, c), self.heads);
+        let k = split_heads(qkv.clone().narrow(2, c, c), self.heads);
+        let v = split_heads(qkv.narrow(2, 2 * c, c), self.heads);
+        self.output.forward(merge_heads(attend_biased(
+            q,
+            k,
+            v,
+            key_bias,
+            self.scale,
+            &self.dropout,
+        )))
     }
 
     /// Only the first query: x [B, N, C] → [B, 1, C], equal to `forward(x, rope)` at token 0 (keys

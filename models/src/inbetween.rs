@@ -13,13 +13,14 @@
 
 use burn::module::{Module, Param};
 use burn::nn::{Dropout, DropoutConfig, LayerNorm, LayerNormConfig, Linear};
-use burn::tensor::activation::softmax;
 use burn::tensor::{Device, Tensor, TensorData};
 
-use crate::attention::{merge_heads, split_heads};
+use crate::attention::{
+    attend_biased, merge_heads, score_scale, split_heads, Attention, AttentionConfig,
+};
 use crate::feed_forward::{FeedForward, FeedForwardConfig};
 use crate::init::{glorot_dense, truncated_normal, truncated_normal_dense};
-use qean_config::inbetween::{Decoder, IbScale, InbetweenConfig, Variant};
+use qean_config::inbetween::{Decoder, InbetweenConfig, Variant};
 
 /// Motion vector width (the 225-D layout of §1.4).
 pub const MOTION_DIM: usize = 225;
@@ -40,69 +41,6 @@ pub fn music_columns(row: &[f32]) -> [f32; MUSIC_DIM] {
     out[20] = row[0];
     out[21] = row[33];
     out
-}
-
-/// softmax(q·kᵀ·s + bias)·v per head; `bias` [B, 1, 1, M] masks padded keys.
-fn attend(
-    q: Tensor<4>,
-    k: Tensor<4>,
-    v: Tensor<4>,
-    bias: Option<Tensor<4>>,
-    scale: f64,
-    dropout: &Dropout,
-) -> Tensor<4> {
-    let mut scores = q.mul_scalar(scale).matmul(k.swap_dims(2, 3));
-    if let Some(b) = bias {
-        scores = scores + b;
-    }
-    dropout.forward(softmax(scores, 3)).matmul(v)
-}
-
-fn score_scale(scale: IbScale, hidden: usize, heads: usize) -> f64 {
-    match scale {
-        IbScale::Head => 1.0 / ((hidden / heads) as f64).sqrt(),
-        IbScale::Hidden => 1.0 / (hidden as f64).sqrt(),
-    }
-}
-
-/// Self-attention with a fused bias-free q/k/v projection.
-#[derive(Module, Debug)]
-pub struct SelfAttention {
-    /// Dense(d → 3d), no bias.
-    pub qkv: Linear,
-    /// Dense(d → d) with bias.
-    pub output: Linear,
-    pub dropout: Dropout,
-    heads: usize,
-    scale: f64,
-}
-
-impl SelfAttention {
-    fn new(c: &InbetweenConfig, device: &Device) -> Self {
-        SelfAttention {
-            qkv: glorot_dense(c.hidden, 3 * c.hidden, false, device),
-            output: glorot_dense(c.hidden, c.hidden, true, device),
-            dropout: DropoutConfig::new(c.dropout).init(),
-            heads: c.heads,
-            scale: score_scale(c.scale, c.hidden, c.heads),
-        }
-    }
-
-    fn forward(&self, x: Tensor<3>, bias: Option<Tensor<4>>) -> Tensor<3> {
-        let [_, _, d] = x.dims();
-        let qkv = self.qkv.forward(x);
-        let q = split_heads(qkv.clone().narrow(2, 0, d), self.heads);
-        let k = split_heads(qkv.clone().narrow(2, d, d), self.heads);
-        let v = split_heads(qkv.narrow(2, 2 * d, d), self.heads);
-        self.output.forward(merge_heads(attend(
-            q,
-            k,
-            v,
-            bias,
-            self.scale,
-            &self.dropout,
-        )))
-    }
 }
 
 /// Cross-attention: separate bias-free W_q (d × d) and W_kv (d × 2d); no LayerNorm on the memory.
@@ -134,7 +72,7 @@ impl CrossAttention {
         let kv = self.key_value.forward(memory);
         let k = split_heads(kv.clone().narrow(2, 0, d), self.heads);
         let v = split_heads(kv.narrow(2, d, d), self.heads);
-        self.output.forward(merge_heads(attend(
+        self.output.forward(merge_heads(attend_biased(
             q,
             k,
             v,
@@ -149,7 +87,7 @@ impl CrossAttention {
 #[derive(Module, Debug)]
 pub struct Layer {
     pub attention_norm: Option<LayerNorm>,
-    pub attention: Option<SelfAttention>,
+    pub attention: Option<Attention>,
     pub cross_norm: Option<LayerNorm>,
     pub cross: Option<CrossAttention>,
     pub mlp_norm: LayerNorm,
@@ -165,7 +103,12 @@ impl Layer {
     fn new(c: &InbetweenConfig, self_attention: bool, cross: bool, device: &Device) -> Self {
         Layer {
             attention_norm: self_attention.then(|| layer_norm(c.hidden, device)),
-            attention: self_attention.then(|| SelfAttention::new(c, device)),
+            attention: self_attention.then(|| {
+                AttentionConfig::new(c.hidden, c.heads)
+                    .with_scale(c.scale)
+                    .with_dropout(c.dropout)
+                    .init(device)
+            }),
             cross_norm: cross.then(|| layer_norm(c.hidden, device)),
             cross: cross.then(|| CrossAttention::new(c, device)),
             mlp_norm: layer_norm(c.hidden, device),
@@ -183,7 +126,10 @@ impl Layer {
         memory: Option<(Tensor<3>, Option<Tensor<4>>)>,
     ) -> Tensor<3> {
         if let (Some(norm), Some(attn)) = (&self.attention_norm, &self.attention) {
-            x = x.clone() + self.dropout.forward(attn.forward(norm.forward(x), bias));
+            x = x.clone()
+                + self
+                    .dropout
+                    .forward(attn.forward_masked(norm.forward(x), bias));
         }
         if let (Some(norm), Some(cross), Some((m, mbias))) = (&self.cross_norm, &self.cross, memory)
         {
