@@ -56,7 +56,14 @@ const ASSETS: &[Asset] = &[
     asset!("configs/tiny/full.toml"),
     asset!("configs/tsmt/paper.toml"),
     asset!("configs/tsmt/tiny.toml"),
+    asset!("configs/inbetween/paper.toml"),
+    asset!("configs/inbetween/tiny.toml"),
+    asset!("configs/inbetween/tiny_motion.toml"),
 ];
+
+/// The run name of the demo's in-betweener (trained beside the dance models, used by
+/// [`crate::demo_inbetween`]).
+const INBETWEENER: &str = "inbetween";
 
 /// The held-out song the demo dances to (not in the dataset).
 const HELD_OUT: &str = "assets/music/Kevin_MacLeod_-_Vibe_Ace.ogg";
@@ -91,12 +98,12 @@ pub struct Budget {
 impl Budget {
     /// Training steps of one demo model: TSMT gets a quarter. It runs at half the others' speed and
     /// does not dance at any CPU budget (docs/tsmt.md), so the full budget would double the demo's time
-    /// for a row that jitters either way.
+    /// for a row that jitters either way. The in-betweener gets half (2,000 steps: its preset's).
     pub fn steps_for(&self, name: &str) -> u64 {
-        if name == "tsmt" {
-            (self.steps / 4).max(25)
-        } else {
-            self.steps
+        match name {
+            "tsmt" => (self.steps / 4).max(25),
+            INBETWEENER => (self.steps / 2).max(25),
+            _ => self.steps,
         }
     }
 
@@ -165,6 +172,8 @@ pub struct DemoResult {
     pub models: Vec<ModelResult>,
     pub table: String,
     pub summary: PathBuf,
+    /// The in-betweening section (none when training was interrupted).
+    pub inbetween: Option<crate::demo_inbetween::InbetweenDemo>,
     /// False when training was interrupted (the table is then not written).
     pub finished: bool,
 }
@@ -253,21 +262,26 @@ fn dataset(out: &Path, budget: &Budget) -> anyhow::Result<PathBuf> {
     Ok(dir)
 }
 
-/// The `--set` overrides that shrink a preset to the demo's budget, for `steps` steps.
-fn overrides(b: &Budget, data: &Path, steps: u64) -> Vec<String> {
+/// The `--set` overrides that shrink a preset to the demo's budget, for `steps` steps (the
+/// in-betweener keeps its own windows and constant learning rate).
+fn overrides(b: &Budget, data: &Path, name: &str, steps: u64) -> Vec<String> {
     let every = (steps / 4).max(1);
     let mut o = vec![
         string_override("data.dir", &data.to_string_lossy()),
-        format!("model.motion_len={}", b.motion_len),
-        format!("model.audio_len={}", b.audio_len),
         format!("train.steps={steps}"),
         format!("train.batch_size={}", b.batch_size),
         format!("train.checkpoint_every={every}"),
         format!("train.val_every={every}"),
         format!("train.log_every={}", (steps / 30).max(1)),
-        format!("schedule.boundaries=[{}]", (steps * 3 / 4).max(1)),
     ];
-    o.extend(b.recipe.iter().cloned());
+    if name != INBETWEENER {
+        o.extend([
+            format!("model.motion_len={}", b.motion_len),
+            format!("model.audio_len={}", b.audio_len),
+            format!("schedule.boundaries=[{}]", (steps * 3 / 4).max(1)),
+        ]);
+        o.extend(b.recipe.iter().cloned());
+    }
     o
 }
 
@@ -290,7 +304,7 @@ fn train_all(
     let mut plans = Vec::new();
     for (name, _, preset) in presets {
         let steps = opts.budget.steps_for(name);
-        let overrides = overrides(&opts.budget, data, steps);
+        let overrides = overrides(&opts.budget, data, name, steps);
         let config = opts.out.join(preset);
         let wanted = RunConfig::load(&config, &overrides)?;
         let run_dir = opts.out.join("runs").join(name);
@@ -696,6 +710,7 @@ fn summary_text(
     data: &Path,
     table: &str,
     models: &[ModelResult],
+    inbetween: &crate::demo_inbetween::InbetweenDemo,
     seconds: f64,
 ) -> String {
     let mut summary = format!(
@@ -723,6 +738,21 @@ fn summary_text(
         );
         for p in &m.dance {
             summary += &format!("  - {}\n", p.display());
+        }
+    }
+    summary += &format!(
+        "- in-betweening: {} (checkpoint {})\n",
+        inbetween
+            .checkpoint
+            .parent()
+            .and_then(Path::parent)
+            .unwrap_or(&inbetween.checkpoint)
+            .display(),
+        inbetween.checkpoint.display()
+    );
+    for r in &inbetween.rows {
+        for p in &r.files {
+            summary += &format!("  - {}: {}\n", r.label, p.display());
         }
     }
     summary += &format!("\nTotal time of this demo run: {seconds:.0} s\n");
@@ -759,8 +789,13 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
             "configs/tiny/full.toml",
         ),
         ("tsmt", "tiny TSMT (Li et al.)", "configs/tsmt/tiny.toml"),
+        (
+            INBETWEENER,
+            "tiny motion in-betweener (Lin)",
+            "configs/inbetween/tiny_motion.toml",
+        ),
     ];
-    let trained: Vec<_> = match train_all(opts, &data, &presets)? {
+    let mut trained: Vec<_> = match train_all(opts, &data, &presets)? {
         Some(t) => presets
             .iter()
             .zip(t)
@@ -772,10 +807,12 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
                 models: Vec::new(),
                 table: String::new(),
                 summary: PathBuf::new(),
+                inbetween: None,
                 finished: false,
             })
         }
     };
+    let (_, _, (ib_ck, _, _)) = trained.pop().expect("the in-betweener is the last preset");
     let reference =
         qean_eval::run_report::dataset_energy_reference(&data, qean_motion::FkRoot::Smpl)?;
     let mut models = Vec::new();
@@ -801,12 +838,21 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
             report,
         });
     }
-    let table = table(&models, &reference) + &table_note(&opts.budget, &models);
+    say(format!(
+        "in-betweening: rebuilding a test dance from {} keys per measure",
+        crate::demo_inbetween::KEYS
+    ));
+    let inbetween =
+        crate::demo_inbetween::run(out, &data, &out.join("runs").join(INBETWEENER), &ib_ck)?;
+    let table = table(&models, &reference)
+        + &table_note(&opts.budget, &models)
+        + &crate::demo_inbetween::table(&inbetween);
     let summary = summary_text(
         &opts.budget,
         &data,
         &table,
         &models,
+        &inbetween,
         started.elapsed().as_secs_f64(),
     );
     let path = out.join("summary.md");
@@ -819,6 +865,7 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
         models,
         table,
         summary: path,
+        inbetween: Some(inbetween),
         finished: true,
     })
 }

@@ -93,6 +93,36 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
         let report = out.join("runs").join(model).join("eval");
         assert!(report.is_dir(), "{}", report.display());
     }
+    // The in-betweening section: a test dance rebuilt from 5 keys per measure by SLERP and by the
+    // tiny in-betweener, each written and previewed, and the verdict in words.
+    for row in [
+        "| original | 0.0000 | 0.0000 |",
+        "| SLERP |",
+        "| tiny motion in-betweener (50 steps) |",
+    ] {
+        assert!(table.contains(row), "missing {row:?} in:\n{table}");
+    }
+    assert!(
+        table.contains("- the in-betweener beats SLERP")
+            || table.contains("- the in-betweener does NOT beat SLERP"),
+        "{table}"
+    );
+    for f in [
+        "edits.json",
+        "original.gif",
+        "slerp.pkl",
+        "slerp.report.json",
+        "inbetweener.pkl",
+        "inbetweener.gif",
+    ] {
+        assert!(out.join("inbetween").join(f).is_file(), "inbetween/{f}");
+    }
+    let report: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(out.join("inbetween/inbetweener.report.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(report["method"], "transformer");
+    assert_eq!(report["keep"], "grid:5");
     let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
     assert!(summary.contains("| tiny FACT |"), "{summary}");
     for licence in [

@@ -151,6 +151,74 @@ fn stem_and_nmfd_keys() {
             .count();
         assert!(on_hits >= 2, "{k:?}");
     }
+    // nmfd_init = drums: templates learnt from kick/snare/hihat samples; the hits are still found.
+    let samples = dir.path().join("drum_samples");
+    for (class, hz) in [("kick", 60.0), ("snare", 900.0), ("hihat", 7000.0)] {
+        std::fs::create_dir_all(samples.join(class)).unwrap();
+        write_wav(&samples.join(class).join("a.wav"), 0.3, |i| {
+            let t = i as f64 / 30720.0;
+            (-t * 30.0).exp() * (tau * hz * t).sin()
+        });
+    }
+    let json = dir.path().join("nmfd_drums.json");
+    let templates = format!(
+        "keyframes.nmfd_templates={:?}",
+        samples.display().to_string()
+    );
+    let mut c = keyframes(
+        &json,
+        &[
+            "--bpm",
+            "120",
+            "--strategy",
+            "nmfd",
+            "--n",
+            "5",
+            "--set",
+            "keyframes.nmfd_init=drums",
+            "--set",
+            &templates,
+        ],
+    );
+    run_ok(c.arg("--stems").arg(&stems));
+    let k = frames(&read(&json)["keyframes"]);
+    let near_hit = |f: usize| (1..5).any(|h| f + 9 >= 24 * h && f <= 24 * h + 2);
+    assert!(
+        k.iter()
+            .filter(|&&f| f > 0 && f < 120 && near_hit(f as usize))
+            .count()
+            >= 2,
+        "{k:?}"
+    );
+    std::fs::remove_file(samples.join("snare/a.wav")).unwrap();
+    let json = dir.path().join("no_snare.json");
+    let mut c = keyframes(
+        &json,
+        &[
+            "--bpm",
+            "120",
+            "--strategy",
+            "nmfd",
+            "--set",
+            "keyframes.nmfd_init=drums",
+            "--set",
+            &templates,
+        ],
+    );
+    assert_clean_failure(c.arg("--stems").arg(&stems), "snare: no drum samples");
+    let mut c = keyframes(
+        &json,
+        &[
+            "--bpm",
+            "120",
+            "--strategy",
+            "nmfd",
+            "--set",
+            "keyframes.nmfd_init=drums",
+        ],
+    );
+    assert_clean_failure(c.arg("--stems").arg(&stems), "needs nmfd_templates");
+    assert!(!json.exists());
     // The HPSS stand-in needs only the music.
     let json = dir.path().join("hpss.json");
     let music = shared().join("music/Kevin_MacLeod_-_Vibe_Ace.ogg");

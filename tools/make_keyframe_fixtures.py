@@ -18,6 +18,10 @@ Writes keyframes/tests/fixtures/:
   nmfd_V.npy                 (1025, 100) float32  |STFT| (centred, periodic Hann 2048, hop 512) of the first
                              100 frames of the Brahms WAV at its own rate
   nmfd_H.npy, nmfd_cost.npy  (3, 100), (30,)  libnmfd nmfd(V) from init_templates(random, T = 8) and H = 1
+  nmfd_drums_W.npy           (1025, 3, 8)  the steps of libnmfd's initialize_drum_specific_nmfd_templates after
+                             its STFT, with V[:, 0:30], V[:, 30:60], V[:, 60:100] as the kick, snare and hi-hat
+                             spectrograms, then init_templates("drums")'s normalisation
+  nmfd_drums_H.npy           (3, 100)  libnmfd nmfd(V) from those templates and H = 1
 """
 import json
 
@@ -128,6 +132,26 @@ def nmfd_fixture():
     np.save(f"{FIX}/nmfd_H.npy", h)
     np.save(f"{FIX}/nmfd_cost.npy", cost)
     print("nmfd: H max", float(h.max()), "cost", float(cost[0]), "->", float(cost[-1]))
+
+    # nmfd_init = drums: libnmfd's per-class template learning (its code, minus reading and STFT-ing
+    # the sample files), on three column ranges of V standing in for the kick, snare and hi-hat samples.
+    learnt = []
+    for a, b in [(0, 30), (30, 60), (60, 100)]:
+        a_class = v[:, a:b]
+        w_init = init_templates(num_comp=1, num_bins=a_class.shape[0], strategy="random")
+        h_init = init_activations(num_comp=1, num_frames=a_class.shape[1], strategy="uniform")
+        w_cls, _, _, _, _ = nmfd(V=a_class, num_comp=1, num_frames=a_class.shape[1], num_iter=30,
+                                 num_template_frames=8, init_W=w_init, init_H=h_init)
+        learnt.append(np.array(w_cls).squeeze(0).copy())
+    eps = np.finfo(float).eps
+    for k in range(3):
+        learnt[k] /= eps + learnt[k].sum()
+    np.save(f"{FIX}/nmfd_drums_W.npy", np.stack(learnt, axis=1))
+    _, h, _, _, _ = nmfd(V=v, num_comp=3, num_frames=v.shape[1], num_iter=30, num_template_frames=8,
+                         init_W=learnt, init_H=init_activations(num_comp=3, num_frames=v.shape[1],
+                                                                strategy="uniform"))
+    np.save(f"{FIX}/nmfd_drums_H.npy", h)
+    print("nmfd drums: H max", float(h.max()))
 
 
 def main():

@@ -71,6 +71,17 @@ pub enum Decoder {
     CrossOnly,
 }
 
+/// How the merged variants join motion and music (`merge_axis`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MergeAxis {
+    /// Per frame: Dense([B_t | enc_t] (225 + d) → d) (SPEC §12.4c default).
+    #[default]
+    Features,
+    /// Tokens [Dense(B); enc] concatenated along time as in FACT, the output read at the B tokens.
+    Time,
+}
+
 /// The interpolated base B the network corrects.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -137,11 +148,16 @@ pub struct InbetweenConfig {
     /// Score scale: 1/√d_head (default) or mint's 1/√d.
     pub scale: AttnScale,
     pub decoder: Decoder,
+    /// How `merged_*` join motion and music.
+    pub merge_axis: MergeAxis,
     pub base: Base,
     /// Keyframes per measure in training (even keys, §12.3a).
     pub train_keys: usize,
     /// Draw N from {3, 5, 9} per window instead of `train_keys` (for edits with other key counts).
     pub mixed_keys: bool,
+    /// Interior keys drawn uniformly among the measure's frames (its ends stay keys) instead of even ones
+    /// (SPEC §12.4c "or random keys": for edits that keep hand-picked frames).
+    pub random_keys: bool,
     /// The drums stem of `cross_drum` / `merged_drum`.
     pub drums: DrumSource,
     pub music_norm: MusicNorm,
@@ -182,9 +198,11 @@ impl InbetweenConfig {
             max_len: 240,
             scale: AttnScale::Head,
             decoder: Decoder::Standard,
+            merge_axis: MergeAxis::Features,
             base: Base::Slerp,
             train_keys: 5,
             mixed_keys: false,
+            random_keys: false,
             drums: DrumSource::Files,
             music_norm: MusicNorm::Standardize,
             mlp_act: MlpAct::Gelu,

@@ -417,10 +417,11 @@ impl RunConfig {
     pub fn summary(&self) -> String {
         if let (true, Some(i)) = (self.is_inbetween(), &self.inbetween) {
             return format!(
-                "in-betweener {} hidden {} heads {} ffn {} layers {} (+{} music) dropout {} base {:?} keys {}{}; batch {} steps {} seed {}",
+                "in-betweener {} hidden {} heads {} ffn {} layers {} (+{} music) dropout {} base {:?} keys {}{}{}; batch {} steps {} seed {}",
                 i.variant.name(), i.hidden, i.heads, i.ffn, i.layers,
                 if i.variant.has_audio() { i.audio_layers } else { 0 },
                 i.dropout, i.base, i.train_keys, if i.mixed_keys { " (mixed 3/5/9)" } else { "" },
+                if i.random_keys { " at random frames" } else { "" },
                 self.train.batch_size, self.train.steps, self.train.seed
             )
             .to_lowercase();

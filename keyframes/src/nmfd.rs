@@ -30,10 +30,12 @@ impl Default for NmfdSize {
     }
 }
 
-/// The factorisation: activations H (R × M, row-major) and the cost before each iteration.
+/// The factorisation: activations H (R × M, row-major), templates W (K × R × T) and the cost before
+/// each iteration.
 #[derive(Debug, Clone)]
 pub struct Nmfd {
     pub activations: Vec<f64>,
+    pub templates: Vec<f64>,
     pub components: usize,
     pub frames: usize,
     pub cost: Vec<f64>,
@@ -81,12 +83,53 @@ pub fn random_templates(bins: usize, size: &NmfdSize) -> Vec<f64> {
     w
 }
 
-/// Factorise V (K × M, row-major magnitudes).
+/// libnmfd `initialize_drum_specific_nmfd_templates` after its STFT: per drum class (kick, snare, hi-hat),
+/// a one-component NMFD of the class's spectrogram, started from `init_templates(1, K, "random")` (one
+/// seed-42 column over (EPS + its sum), which `nmfd` broadcasts to all T frames) and H = 1; each learnt
+/// template then divided by (EPS + its sum) as `init_templates(strategy="drums")` does. Returns W
+/// (K × R × T) with R = the number of classes. `class_spectra` are K × M_c row-major magnitudes.
+pub fn drum_templates(class_spectra: &[&[f64]], bins: usize, size: &NmfdSize) -> Vec<f64> {
+    let (r_n, t_n) = (class_spectra.len(), size.template_frames);
+    let one = NmfdSize {
+        components: 1,
+        ..*size
+    };
+    let mut rng = Mt19937::new(42);
+    let column: Vec<f64> = (0..bins).map(|_| rng.next_f64()).collect();
+    let sum: f64 = column.iter().sum();
+    let w0: Vec<f64> = column
+        .iter()
+        .flat_map(|c| std::iter::repeat_n(c / (EPS + sum), t_n))
+        .collect();
+    let mut w = vec![0.0; bins * r_n * t_n];
+    for (r, v) in class_spectra.iter().enumerate() {
+        let learnt = nmfd_from(v, bins, &one, w0.clone()).templates;
+        let total: f64 = learnt.iter().sum();
+        for k in 0..bins {
+            for t in 0..t_n {
+                w[(k * r_n + r) * t_n + t] = learnt[k * t_n + t] / (EPS + total);
+            }
+        }
+    }
+    w
+}
+
+/// Factorise V (K × M, row-major magnitudes) from libnmfd's seed-42 random templates.
 pub fn nmfd(v: &[f64], bins: usize, size: &NmfdSize) -> Nmfd {
+    nmfd_from(v, bins, size, random_templates(bins, size))
+}
+
+/// Factorise V from the templates `w0` (K × R × T, e.g. [`drum_templates`]) and H = 1.
+pub fn nmfd_from(v: &[f64], bins: usize, size: &NmfdSize, w0: Vec<f64>) -> Nmfd {
     let (k_n, r_n, t_n) = (bins, size.components, size.template_frames);
     let m_n = v.len() / bins;
     assert_eq!(v.len(), k_n * m_n, "V must be bins × frames");
-    let mut w = random_templates(k_n, size);
+    assert_eq!(
+        w0.len(),
+        k_n * r_n * t_n,
+        "W must be bins × components × frames"
+    );
+    let mut w = w0;
     let mut h = vec![1.0; r_n * m_n];
     let total: f64 = v.iter().sum();
     let vn: Vec<f64> = v.iter().map(|x| x / (EPS + total)).collect();
@@ -180,6 +223,7 @@ pub fn nmfd(v: &[f64], bins: usize, size: &NmfdSize) -> Nmfd {
     }
     Nmfd {
         activations: h,
+        templates: w,
         components: r_n,
         frames: m_n,
         cost,

@@ -8,6 +8,21 @@ use crate::onset_keys::{Fallback, PeakPicker};
 use crate::stems::StemSource;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
+/// How NMFD's templates start (`nmfd_init`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NmfdInit {
+    /// libnmfd's seed-42 random templates (Lin's setting).
+    #[default]
+    Random,
+    /// Templates learnt from drum samples: `nmfd_templates` holds kick/, snare/ and hihat/ folders of
+    /// WAVs (libnmfd's `data/` folders, from its repository).
+    Drums,
+}
+
+/// The drum classes of `nmfd_init = "drums"`, one NMFD component each, in libnmfd's order.
+pub const DRUM_CLASSES: [&str; 3] = ["kick", "snare", "hihat"];
+
 /// Where the measure grid starts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MeasureOffset {
@@ -85,6 +100,9 @@ pub struct KeyframeOptions {
     pub nmfd_template_frames: usize,
     /// Weights of the NMFD activations in the curve (one per component; default all 1).
     pub nmfd_weights: Vec<f64>,
+    pub nmfd_init: NmfdInit,
+    /// The folder of drum samples for `nmfd_init = "drums"`.
+    pub nmfd_templates: Option<std::path::PathBuf>,
     pub dp_error: DpError,
     pub dp_combine: DpCombine,
     pub dp_space: DpSpace,
@@ -107,6 +125,8 @@ impl Default for KeyframeOptions {
             nmfd_iterations: 30,
             nmfd_template_frames: 8,
             nmfd_weights: vec![1.0; 3],
+            nmfd_init: NmfdInit::Random,
+            nmfd_templates: None,
             dp_error: DpError::Chord,
             dp_combine: DpCombine::Max,
             dp_space: DpSpace::Euler75,
@@ -149,6 +169,21 @@ impl KeyframeOptions {
             .any(|w| !w.is_finite())
         {
             return Err("stem_weights and nmfd_weights must be finite".into());
+        }
+        if self.nmfd_init == NmfdInit::Drums {
+            if self.nmfd_templates.is_none() {
+                return Err(
+                    "nmfd_init = \"drums\" needs nmfd_templates = \"DIR\" (kick/, snare/ and hihat/ folders of WAVs)"
+                        .into(),
+                );
+            }
+            if self.nmfd_components != DRUM_CLASSES.len() {
+                return Err(format!(
+                    "nmfd_init = \"drums\" learns one component per drum class ({}): nmfd_components must be {}",
+                    DRUM_CLASSES.join(", "),
+                    DRUM_CLASSES.len()
+                ));
+            }
         }
         Ok(())
     }

@@ -173,6 +173,39 @@ fn nmfd_equals_libnmfd() {
 }
 
 #[test]
+fn nmfd_drum_templates_equal_libnmfd() {
+    // nmfd_init = drums: three column ranges of the fixture spectrogram stand in for the kick, snare and
+    // hi-hat samples (tools/make_keyframe_fixtures.py runs libnmfd's steps on the same columns).
+    use qean_keyframes::nmfd::{drum_templates, nmfd_from, NmfdSize};
+    let (vshape, v) = npy("nmfd_V.npy");
+    let (_, want_w) = npy("nmfd_drums_W.npy");
+    let (_, want_h) = npy("nmfd_drums_H.npy");
+    let (bins, frames) = (vshape[0], vshape[1]);
+    let columns = |a: usize, b: usize| -> Vec<f64> {
+        (0..bins)
+            .flat_map(|k| v[k * frames + a..k * frames + b].to_vec())
+            .collect()
+    };
+    let classes = [columns(0, 30), columns(30, 60), columns(60, 100)];
+    let size = NmfdSize::default();
+    let refs: Vec<&[f64]> = classes.iter().map(Vec::as_slice).collect();
+    let w = drum_templates(&refs, bins, &size);
+    let relative = |got: &[f64], want: &[f64]| {
+        let top = want.iter().cloned().fold(0.0, f64::max);
+        got.iter()
+            .zip(want)
+            .map(|(a, b)| (a - b).abs() / b.abs().max(1e-6 * top))
+            .fold(0.0, f64::max)
+    };
+    assert_eq!(w.len(), want_w.len());
+    let worst = relative(&w, &want_w);
+    assert!(worst < 1e-9, "W relative error {worst:e}");
+    let out = nmfd_from(&v, bins, &size, w);
+    let worst = relative(&out.activations, &want_h);
+    assert!(worst < 1e-9, "H relative error {worst:e}");
+}
+
+#[test]
 fn onset_detect_on_the_envelope_is_column_33() {
     // SPEC §12.3b: with the default picker, the peaks of M_onset (column 0) are column 33's onsets. The
     // librosa 0.8.1 feature fixtures of qean-audio carry both.

@@ -20,7 +20,7 @@ use crate::attention::{
 };
 use crate::feed_forward::{FeedForward, FeedForwardConfig};
 use crate::init::{glorot_dense, truncated_normal, truncated_normal_dense};
-use qean_config::inbetween::{Decoder, InbetweenConfig, Variant};
+use qean_config::inbetween::{Decoder, InbetweenConfig, MergeAxis, Variant};
 
 /// Motion vector width (the 225-D layout of §1.4).
 pub const MOTION_DIM: usize = 225;
@@ -194,6 +194,8 @@ pub struct Inbetweener {
     pub dropout: Dropout,
     genre: bool,
     merged: bool,
+    /// `merge_axis = time`: motion and music tokens side by side in time.
+    merge_time: bool,
     cross: bool,
     max_len: usize,
 }
@@ -203,9 +205,10 @@ impl Inbetweener {
     pub fn new(c: &InbetweenConfig, device: &Device) -> Inbetweener {
         let v = c.variant;
         let merged = matches!(v, Variant::MergedFull | Variant::MergedDrum);
+        let merge_time = merged && c.merge_axis == MergeAxis::Time;
         let input = match v {
             Variant::Genre => MOTION_DIM + GENRES.len(),
-            _ if merged => MOTION_DIM + c.hidden,
+            _ if merged && !merge_time => MOTION_DIM + c.hidden,
             _ => MOTION_DIM,
         };
         let music = v.has_audio().then(|| MusicEncoder {
@@ -228,6 +231,7 @@ impl Inbetweener {
             dropout: DropoutConfig::new(c.dropout).init(),
             genre: v == Variant::Genre,
             merged,
+            merge_time,
             cross: v.is_cross(),
             max_len: c.max_len,
         }
@@ -260,7 +264,7 @@ impl Inbetweener {
                 .expect("the genre in-betweener needs a genre");
             let g = g.unsqueeze_dim::<3>(1).expand([b, t, GENRES.len()]);
             Tensor::cat(vec![base.clone(), g], 2)
-        } else if self.merged {
+        } else if self.merged && !self.merge_time {
             Tensor::cat(vec![base.clone(), memory.clone().expect("music")], 2)
         } else {
             base.clone()
@@ -268,6 +272,13 @@ impl Inbetweener {
         let mut x =
             self.motion_in.forward(input) + self.positions.val().narrow(0, 0, t).unsqueeze::<3>();
         x = self.dropout.forward(x);
+        // merge_axis = time: [motion tokens; music tokens], each half masked like its segment.
+        let bias = if self.merge_time {
+            x = Tensor::cat(vec![x, memory.clone().expect("music")], 1);
+            bias.map(|b| Tensor::cat(vec![b.clone(), b], 3))
+        } else {
+            bias
+        };
         for layer in &self.layers {
             let mem = if self.cross {
                 memory.clone().map(|m| (m, bias.clone()))
@@ -275,6 +286,9 @@ impl Inbetweener {
                 None
             };
             x = layer.forward(x, bias.clone(), mem);
+        }
+        if self.merge_time {
+            x = x.narrow(1, 0, t);
         }
         base + self.output.forward(x)
     }
@@ -304,7 +318,9 @@ pub fn inbetween_params(c: &InbetweenConfig) -> usize {
     };
     let input = match v {
         Variant::Genre => dense(MOTION_DIM + GENRES.len(), d),
-        Variant::MergedFull | Variant::MergedDrum => dense(MOTION_DIM + d, d),
+        Variant::MergedFull | Variant::MergedDrum if c.merge_axis == MergeAxis::Features => {
+            dense(MOTION_DIM + d, d)
+        }
         _ => dense(MOTION_DIM, d),
     };
     let layer = if v.is_cross() {
@@ -364,6 +380,14 @@ mod tests {
             ..InbetweenConfig::tiny()
         };
         assert_eq!(count(&cross_only), inbetween_params(&cross_only));
+        // merge_axis = time: the merge Dense reads B alone (d fewer inputs).
+        let time = InbetweenConfig {
+            variant: Variant::MergedFull,
+            merge_axis: MergeAxis::Time,
+            ..InbetweenConfig::tiny()
+        };
+        assert_eq!(count(&time), 198_497 - 64 * 64);
+        assert_eq!(inbetween_params(&time), count(&time));
     }
 
     fn inputs(variant: Variant, b: usize, t: usize, device: &Device) -> (Tensor<3>, Conditioning) {
@@ -392,9 +416,15 @@ mod tests {
     fn shapes_zero_output_and_padding() {
         let device = Device::flex();
         device.seed(3);
-        for variant in Variant::ALL {
+        let time = (Variant::MergedDrum, MergeAxis::Time);
+        for (variant, merge_axis) in Variant::ALL
+            .map(|v| (v, MergeAxis::Features))
+            .into_iter()
+            .chain([time])
+        {
             let c = InbetweenConfig {
                 variant,
+                merge_axis,
                 dropout: 0.0,
                 ..InbetweenConfig::tiny()
             };

@@ -75,8 +75,15 @@ fn keep_label(k: &Keep) -> String {
     }
 }
 
-/// The frames `keep` names, over the whole motion.
-fn kept_frames(motion: &Motion, req: &EditRequest, keep: &Keep) -> Result<Vec<usize>> {
+/// The frames `keep` names, over the whole motion, and the boundaries of the measures they were chosen
+/// in, sorted (where the in-betweener's windows end; `measures_wanted` also finds them for frame lists
+/// when a tempo is known).
+fn kept_frames(
+    motion: &Motion,
+    req: &EditRequest,
+    keep: &Keep,
+    measures_wanted: bool,
+) -> Result<(Vec<usize>, Vec<usize>)> {
     let rule = |strategy, n| KeyframesRequest {
         motion: req.motion.clone(),
         music: req.music.clone(),
@@ -86,18 +93,39 @@ fn kept_frames(motion: &Motion, req: &EditRequest, keep: &Keep) -> Result<Vec<us
         bpm: req.bpm,
         options: req.options.clone(),
     };
-    let selected = |strategy, n| -> Result<Vec<usize>> {
-        Ok(select_keyframes_of(motion, &rule(strategy, n))?
-            .selection
-            .keyframes)
+    type Measures = Option<Vec<(usize, usize)>>;
+    let selected = |strategy, n| -> Result<(Vec<usize>, Measures)> {
+        let s = select_keyframes_of(motion, &rule(strategy, n))?.selection;
+        Ok((s.keyframes, Some(s.segments)))
     };
-    match keep {
-        Keep::Ends => Ok(vec![]),
-        Keep::Frames(f) => Ok(f.clone()),
-        Keep::Grid(n) => selected(Strategy::Even, *n),
-        Keep::Dp(n) => selected(Strategy::Dp, *n),
-        Keep::Onset(n) => selected(Strategy::Onset, *n),
-    }
+    let measures = || {
+        if !measures_wanted {
+            return None;
+        }
+        match select_keyframes_of(motion, &rule(Strategy::Even, 2)) {
+            Ok(k) => Some(k.selection.segments),
+            Err(e) => {
+                tracing::warn!(
+                    "{}: no measure grid for the in-betweener's windows ({e}); windows are cut at anchors only",
+                    req.motion.display()
+                );
+                None
+            }
+        }
+    };
+    let (kept, measures) = match keep {
+        Keep::Ends => (vec![], measures()),
+        Keep::Frames(f) => (f.clone(), measures()),
+        Keep::Grid(n) => selected(Strategy::Even, *n)?,
+        Keep::Dp(n) => selected(Strategy::Dp, *n)?,
+        Keep::Onset(n) => selected(Strategy::Onset, *n)?,
+    };
+    let cuts: std::collections::BTreeSet<usize> = measures
+        .iter()
+        .flatten()
+        .flat_map(|&(a, b)| [a, b])
+        .collect();
+    Ok((kept, cuts.into_iter().collect()))
 }
 
 /// The Bézier θ: the mean over the input's own key pairs that lie outside every range (keys from the
@@ -174,11 +202,14 @@ fn warn_if_faster(input: &Motion, out: &Motion, ranges: &[(usize, usize)], edits
     }
 }
 
-/// A range's anchors as in-betweener windows: the span cut at anchors into windows of at most `max_len`
-/// frames (each window's ends are anchors, so consecutive windows share one).
+/// A range's anchors as in-betweener windows, each as close to a training window (one measure) as the
+/// anchors allow: a window ends at the first anchor that starts a measure (`cuts`, the measure
+/// boundaries; SPEC §12.7 runs the measures that overlap the range), or before it would exceed `max_len`
+/// frames. Windows end at anchors, so consecutive windows share one.
 pub fn anchor_windows(
     anchors: &[usize],
     max_len: usize,
+    cuts: &[usize],
 ) -> std::result::Result<Vec<Segment>, String> {
     let mut out = Vec::new();
     let mut start = 0;
@@ -192,7 +223,10 @@ pub fn anchor_windows(
                 anchors[end] - anchors[start]
             ));
         }
-        while end + 1 < anchors.len() && anchors[end + 1] - anchors[start] < max_len {
+        while end + 1 < anchors.len()
+            && anchors[end + 1] - anchors[start] < max_len
+            && cuts.binary_search(&anchors[end]).is_err()
+        {
             end += 1;
         }
         out.push(Segment {
@@ -247,7 +281,12 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
             req.out.display()
         )));
     }
-    let kept = kept_frames(&motion, req, &spec.keep)?;
+    let (kept, cuts) = kept_frames(
+        &motion,
+        req,
+        &spec.keep,
+        req.method == EditMethod::Transformer,
+    )?;
     let (theta, theta_source) = match req.method {
         EditMethod::Slerp | EditMethod::Transformer => (None, None),
         EditMethod::Bezier => {
@@ -282,7 +321,7 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
             &t.model,
             &t.config,
             edited,
-            &anchor_windows(anchors, t.config.max_len)?,
+            &anchor_windows(anchors, t.config.max_len, &cuts)?,
             &ctx,
         )
         .map_err(|e| e.to_string())
@@ -335,4 +374,30 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
         )?;
     }
     Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::anchor_windows;
+
+    fn spans(w: &[crate::inbetweener::Segment]) -> Vec<(usize, usize, usize)> {
+        w.iter().map(|s| (s.a, s.b, s.keys.len())).collect()
+    }
+
+    #[test]
+    fn windows_end_at_measure_boundaries_and_respect_max_len() {
+        // 5 keys per 180-frame measure: one window per measure, as in training.
+        let anchors: Vec<usize> = (0..=8).map(|i| i * 45).collect();
+        let w = anchor_windows(&anchors, 240, &[0, 180, 360]).unwrap();
+        assert_eq!(spans(&w), vec![(0, 180, 5), (180, 360, 5)]);
+        // Without a grid the same anchors pack greedily under max_len.
+        let w = anchor_windows(&anchors, 240, &[]).unwrap();
+        assert_eq!(spans(&w), vec![(0, 225, 6), (225, 360, 4)]);
+        // A boundary that is not an anchor does not cut; max_len still does.
+        let w = anchor_windows(&[0, 100, 200, 300], 240, &[150]).unwrap();
+        assert_eq!(spans(&w), vec![(0, 200, 3), (200, 300, 2)]);
+        assert!(anchor_windows(&[0, 300], 240, &[])
+            .unwrap_err()
+            .contains("300 frames apart"));
+    }
 }

@@ -3,7 +3,7 @@
 //! FID_k (Dist and BeatAlign as extras), next to Lin's published numbers.
 
 use crate::inbetweener::{measure_segments, rebuild, Context, Trained};
-use crate::keyframes::{select_keyframes_of, KeyframesRequest};
+use crate::keyframes::{select_keyframes_cached, CurveCache, KeyframesRequest};
 use crate::{Error, Result};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_eval::config::{EvalConfig, MusicBeatSource};
@@ -156,18 +156,20 @@ fn load(ds: &Dataset, splits: &[Split], include_jb: bool) -> Result<Loaded> {
 /// Keys of one dataset sequence under a strategy (tempo from its AIST++ name).
 fn keys_of(
     ds: &Dataset,
+    curves: &CurveCache,
     req: &InbetweenRequest,
     name: &str,
     motion: &Motion,
     strategy: Strategy,
     n: usize,
 ) -> Result<Vec<usize>> {
-    Ok(selection_of(ds, req, name, motion, strategy, n)?.keyframes)
+    Ok(selection_of(ds, curves, req, name, motion, strategy, n)?.keyframes)
 }
 
 /// The measures and keys of one dataset sequence under a strategy.
 fn selection_of(
     ds: &Dataset,
+    curves: &CurveCache,
     req: &InbetweenRequest,
     name: &str,
     motion: &Motion,
@@ -186,7 +188,7 @@ fn selection_of(
         bpm: None,
         options: req.options.clone(),
     };
-    Ok(select_keyframes_of(motion, &k)?.selection)
+    Ok(select_keyframes_cached(motion, &k, Some(curves))?.selection)
 }
 
 /// The music the trained in-betweeners read: (full-mix features, drums-stem features) per music ID, each
@@ -255,6 +257,7 @@ fn joints_sequence(name: &str, m: &Motion, root: FkRoot) -> Sequence {
 /// The mean Bézier θ of the training split's key pairs under one strategy and N.
 fn train_mean(
     ds: &Dataset,
+    curves: &CurveCache,
     req: &InbetweenRequest,
     train: &Loaded,
     strategy: Strategy,
@@ -262,7 +265,7 @@ fn train_mean(
 ) -> Result<MeanTheta> {
     let mut m = MeanTheta::default();
     for (name, motion) in train.names.iter().zip(&train.motions) {
-        let keys = keys_of(ds, req, name, motion, strategy, n)?;
+        let keys = keys_of(ds, curves, req, name, motion, strategy, n)?;
         m.add(motion, &keys, &req.bezier);
     }
     Ok(m)
@@ -291,6 +294,7 @@ impl Cell<'_> {
 /// Rebuild every test dance for one cell and score the set (the row's `seconds` is left 0).
 fn score(
     ds: &Dataset,
+    curves: &CurveCache,
     req: &InbetweenRequest,
     test: &Loaded,
     reference: &[Sequence],
@@ -300,7 +304,7 @@ fn score(
     let mut generated = Vec::new();
     let (mut total_mse, mut total_keys) = (0.0, 0usize);
     for (name, motion) in test.names.iter().zip(&test.motions) {
-        let selection = selection_of(ds, req, name, motion, cell.strategy, cell.n)?;
+        let selection = selection_of(ds, curves, req, name, motion, cell.strategy, cell.n)?;
         let keys = selection.keyframes;
         total_keys += keys.len();
         let rebuilt = match (cell.method, cell.mean) {
@@ -413,6 +417,7 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
     let mut rows = Vec::new();
     let mut gt = None;
     let mut means: HashMap<(Strategy, usize), MeanTheta> = HashMap::new();
+    let curves = CurveCache::default();
     for &n in &req.keys {
         for &(strategy, method, trained) in &cells {
             let t0 = Instant::now();
@@ -420,7 +425,7 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
                 let train = train.as_ref().expect("loaded when a row needs it");
                 if let std::collections::hash_map::Entry::Vacant(slot) = means.entry((strategy, n))
                 {
-                    slot.insert(train_mean(&ds, req, train, strategy, n)?);
+                    slot.insert(train_mean(&ds, &curves, req, train, strategy, n)?);
                 }
                 means.get(&(strategy, n))
             } else {
@@ -437,7 +442,7 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
                     _ => &features,
                 },
             };
-            let (row, report) = score(&ds, req, &test, &reference, &lookup, &cell)?;
+            let (row, report) = score(&ds, &curves, req, &test, &reference, &lookup, &cell)?;
             gt.get_or_insert((report.gt_div_k, report.gt_div_g, report.gt_beat_align));
             rows.push(Row {
                 seconds: t0.elapsed().as_secs_f64(),

@@ -3,7 +3,8 @@
 
 use crate::{Error, Result};
 use qean_audio::features::{features_for_file, FeatureOptions, COL_ENV};
-use qean_keyframes::nmfd::nmfd;
+use qean_keyframes::nmfd::{drum_templates, nmfd, nmfd_from, NmfdSize};
+use qean_keyframes::options::{NmfdInit, DRUM_CLASSES};
 use qean_keyframes::select::{select_keys, Selection, Strategy};
 use qean_keyframes::stems::{
     hpss_stems, stem_from_samples, weighted_curve, Stem, StemSource, STEM_NAMES,
@@ -12,7 +13,9 @@ use qean_keyframes::KeyframeOptions;
 use qean_motion::motion::read_motion;
 use qean_motion::Motion;
 use serde::Serialize;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 /// What to select.
 #[derive(Debug, Clone)]
@@ -42,6 +45,7 @@ pub struct KeyframesResult {
 }
 
 /// The onset curve and first beat of a music file, one value per 60-fps frame.
+#[derive(Debug, Clone)]
 pub struct MusicCurve {
     pub envelope: Vec<f64>,
     pub first_beat: Option<usize>,
@@ -154,6 +158,47 @@ fn stems(req: &KeyframesRequest, music: Option<&Path>) -> Result<[Option<Stem>; 
     }
 }
 
+/// `nmfd_init = "drums"`: templates learnt from the samples in `dir`/{kick,snare,hihat}/ as libnmfd does
+/// (each file mono at 30720 Hz, scaled to peak 0.99, a class's files joined in name order, |STFT| of §2.2).
+fn sample_templates(dir: &Path, bins: usize, size: &NmfdSize) -> Result<Vec<f64>> {
+    let mut spectra = Vec::new();
+    for class in DRUM_CLASSES {
+        let folder = dir.join(class);
+        let mut files: Vec<PathBuf> = std::fs::read_dir(&folder)
+            .map_err(|e| {
+                Error::Invalid(format!(
+                    "{}: cannot read the drum samples: {e}",
+                    folder.display()
+                ))
+            })?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.is_file())
+            .collect();
+        files.sort();
+        if files.is_empty() {
+            return Err(Error::Invalid(format!(
+                "{}: no drum samples (nmfd_init = \"drums\" reads every audio file of kick/, snare/ and hihat/)",
+                folder.display()
+            )));
+        }
+        let mut joined = Vec::new();
+        for f in &files {
+            let y = load_samples(f)?;
+            let peak = y.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            if peak == 0.0 {
+                return Err(Error::Invalid(format!(
+                    "{}: a silent drum sample",
+                    f.display()
+                )));
+            }
+            joined.extend(y.iter().map(|x| 0.99 * x / peak));
+        }
+        spectra.push(stem_from_samples(&joined).magnitude);
+    }
+    let refs: Vec<&[f64]> = spectra.iter().map(Vec::as_slice).collect();
+    Ok(drum_templates(&refs, bins, size))
+}
+
 /// The curve whose peaks a music strategy keys on: onset envelope, stem-weighted onsets or NMFD drums.
 fn strategy_curve(
     req: &KeyframesRequest,
@@ -171,7 +216,14 @@ fn strategy_curve(
             let [Some(drums), ..] = stems(req, music)? else {
                 unreachable!("nmfd always loads the drums")
             };
-            let f = nmfd(&drums.magnitude, drums.bins, &req.options.nmfd_size());
+            let size = req.options.nmfd_size();
+            let f = match (req.options.nmfd_init, &req.options.nmfd_templates) {
+                (NmfdInit::Drums, Some(dir)) => {
+                    let w = sample_templates(dir, drums.bins, &size)?;
+                    nmfd_from(&drums.magnitude, drums.bins, &size, w)
+                }
+                _ => nmfd(&drums.magnitude, drums.bins, &size),
+            };
             Some(f.curve(&req.options.nmfd_weights))
         }
         Strategy::Even | Strategy::Dp => None,
@@ -189,6 +241,36 @@ pub fn select_keyframes(req: &KeyframesRequest) -> Result<KeyframesResult> {
 
 /// Select keyframes for a motion already read (`req.motion` names it in messages and gives its tempo).
 pub fn select_keyframes_of(motion: &Motion, req: &KeyframesRequest) -> Result<KeyframesResult> {
+    select_keyframes_cached(motion, req, None)
+}
+
+/// What a music strategy computed from the music: the feature curve and the keyed curve.
+type Curves = (Option<MusicCurve>, Option<Vec<f64>>);
+
+/// The music curves of earlier selections, by (music, stems, strategy, start tempo, options): a
+/// benchmark keys every sequence at several N and rows, and the curves (beat tracking, HPSS, NMFD)
+/// do not depend on N.
+#[derive(Default)]
+pub struct CurveCache(Mutex<HashMap<String, Curves>>);
+
+impl CurveCache {
+    fn key(req: &KeyframesRequest, music: Option<&Path>, start_bpm: f64) -> String {
+        format!(
+            "{:?}|{:?}|{}|{start_bpm}|{}",
+            music,
+            req.stems,
+            req.strategy.name(),
+            serde_json::to_string(&req.options).expect("plain data")
+        )
+    }
+}
+
+/// [`select_keyframes_of`], reusing (and filling) `cache` for the music curves.
+pub fn select_keyframes_cached(
+    motion: &Motion,
+    req: &KeyframesRequest,
+    cache: Option<&CurveCache>,
+) -> Result<KeyframesResult> {
     let (needs_music, needs_stems) = needs(req);
     if needs_stems && req.stems.is_none() {
         return Err(Error::Invalid(format!(
@@ -222,14 +304,26 @@ pub fn select_keyframes_of(motion: &Motion, req: &KeyframesRequest) -> Result<Ke
         .or_else(|| named_tempo(&[req.motion.as_path()]).map(|t| t.0))
         .filter(|b| b.is_finite() && *b > 0.0)
         .unwrap_or(120.0);
-    let curve = music.map(|m| music_curve(m, start_bpm)).transpose()?;
+    let key = CurveCache::key(req, music, start_bpm);
+    let cached = cache.and_then(|c| c.0.lock().expect("not poisoned").get(&key).cloned());
+    let (curve, keyed) = match cached {
+        Some(c) => c,
+        None => {
+            let curve = music.map(|m| music_curve(m, start_bpm)).transpose()?;
+            let keyed = strategy_curve(req, music, curve.as_ref())?;
+            if let Some(c) = cache {
+                let value = (curve.clone(), keyed.clone());
+                c.0.lock().expect("not poisoned").insert(key, value);
+            }
+            (curve, keyed)
+        }
+    };
     let (bpm, tempo_source) = resolve_tempo(req.bpm, &req.motion, music, curve.as_ref())?;
     let offset = req
         .options
         .measure_offset
         .resolve(curve.as_ref().and_then(|c| c.first_beat))
         .map_err(|e| Error::Invalid(format!("{}: {e}", req.motion.display())))?;
-    let keyed = strategy_curve(req, music, curve.as_ref())?;
     if let Some(c) = &keyed {
         if c.len() < motion.frames {
             tracing::warn!(

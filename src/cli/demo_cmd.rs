@@ -7,11 +7,13 @@ use qean::demo::{self, Budget, DemoOptions};
 use qean_train::ProgressMode;
 
 /// Run everything on embedded data, with nothing to download: a synthetic AIST++-format dataset whose
-/// music includes two real recordings, the tiny FACT and tiny full-QEAN models trained on CPU, a
-/// 1200-frame dance for a held-out real song (Kevin MacLeod's "Vibe Ace", CC BY 3.0) with a preview,
-/// and both models scored (FID_k, FID_g, Dist_k, Dist_g, BeatAlign) next to chance baselines.
-/// About 8 minutes on 2 CPU cores (`--quick`: under a minute). Run it again to reuse finished stages;
-/// Ctrl-C stops training with a checkpoint and the next run continues.
+/// music includes two real recordings; the tiny FACT, full-QEAN and TSMT models trained on CPU; a
+/// 1200-frame dance for a held-out real song (Kevin MacLeod's "Vibe Ace", CC BY 3.0) from each, with a
+/// preview and a verdict (does it keep dancing?); every model scored (FID_k, FID_g, Dist_k, Dist_g,
+/// BeatAlign, Li et al.'s metrics) next to chance baselines; then a test dance cut to 5 keys per measure
+/// and rebuilt by SLERP and by a tiny in-betweener trained beside them. About 12 minutes on 2 CPU cores
+/// (`--quick`: about a minute). Run it again to reuse finished stages; Ctrl-C stops training with a
+/// checkpoint and the next run continues.
 ///
 /// Example: qean demo --quick
 #[derive(Args, Debug)]
@@ -59,6 +61,15 @@ pub fn demo(a: DemoArgs) -> anyhow::Result<i32> {
         println!("    report: {}", m.report_md.display());
         for p in &m.dance {
             println!("    dance: {}", p.display());
+        }
+    }
+    if let Some(ib) = &r.inbetween {
+        println!("  in-betweening ({}):", ib.sequence);
+        println!("    checkpoint: {}", ib.checkpoint.display());
+        for row in &ib.rows {
+            for p in &row.files {
+                println!("    {}: {}", row.label, p.display());
+            }
         }
     }
     println!("  summary: {}", r.summary.display());

@@ -187,13 +187,14 @@ impl Checkpoint {
                     c.audio_layers,
                     c.max_len,
                     c.decoder,
+                    c.merge_axis,
                 )
             };
             if shape(a) != shape(b) {
                 return Err(Error::at(
                     &self.dir,
                     format!(
-                        "the checkpoint is another in-betweener: {:?} (checkpoint) vs {:?} (variant, hidden, heads, ffn, layers, audio_layers, max_len, decoder)",
+                        "the checkpoint is another in-betweener: {:?} (checkpoint) vs {:?} (variant, hidden, heads, ffn, layers, audio_layers, max_len, decoder, merge_axis)",
                         shape(a),
                         shape(b)
                     ),

@@ -1,7 +1,7 @@
 //! Lin's transformer in-betweeners as a trainer [`Family`] (SPEC §12.4c "Training"): every sequence is cut
 //! into its measures (the §12.2 grid at the music ID's tempo, shared boundaries), each measure a window of
 //! its own, so an epoch visits every measure once. A window's keyframes are even keys (`train_keys` per
-//! measure, or N ∈ {3, 5, 9} per draw with `mixed_keys`); the base B interpolates them (SLERP, or an
+//! measure, or N ∈ {3, 5, 9} per draw with `mixed_keys`; at random frames with `random_keys`); the base B interpolates them (SLERP, or an
 //! element-wise lerp of the 225-D vectors); the loss is the MSE between the predicted and the true
 //! residual Y − B over the valid frames × 225 values (pad values and keyframes included: their target is
 //! 0 or near it). Windows are padded to `max_len` and each batch is trimmed to its longest measure; the
@@ -260,6 +260,23 @@ fn keys_for(c: &InbetweenConfig, seed: u64, i: usize) -> usize {
     }
 }
 
+/// The keys of row `i` of a draw in a measure of `len` frames: even, or (`random_keys`) its two ends and
+/// n − 2 distinct interior frames drawn uniformly.
+fn window_keys(c: &InbetweenConfig, seed: u64, i: usize, len: usize) -> Vec<usize> {
+    let n = keys_for(c, seed, i);
+    if !c.random_keys || len < 3 {
+        return even_keys(0, len - 1, n);
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(
+        seed ^ (i as u64).wrapping_mul(0xD1B5_4A32_D192_ED03),
+    );
+    let interior = rand::seq::index::sample(&mut rng, len - 2, (n - 2).min(len - 2));
+    let mut keys: Vec<usize> = interior.into_iter().map(|k| k + 1).collect();
+    keys.extend([0, len - 1]);
+    keys.sort_unstable();
+    keys
+}
+
 /// Tensors of a batch of measure windows, trimmed to its longest measure.
 pub fn tensors(batch: &Batch, c: &InbetweenConfig, seed: u64, device: &Device) -> IbInputs {
     let b = batch.len();
@@ -277,7 +294,7 @@ pub fn tensors(batch: &Batch, c: &InbetweenConfig, seed: u64, device: &Device) -
     let (mut base, mut target, mut music, mut mask) = (vec![], vec![], vec![], vec![]);
     for (i, &len) in lens.iter().enumerate() {
         let rows = &batch.motion[i * span * w..(i + 1) * span * w];
-        let keys = even_keys(0, len - 1, keys_for(c, seed, i));
+        let keys = window_keys(c, seed, i, len);
         let mut bi = base_225(rows, len, &keys, c.base);
         bi.extend_from_slice(&rows[len * w..t * w]);
         base.extend(bi);
@@ -440,6 +457,7 @@ impl Family for InbetweenFamily {
     ) -> f64 {
         let c = InbetweenConfig {
             mixed_keys: false,
+            random_keys: false,
             ..config_of(config).clone()
         };
         let all = set.first_windows();
@@ -494,5 +512,24 @@ mod tests {
         // The element-wise lerp halfway between two keys is the mean of their vectors.
         let l = base_225(&rows, 121, &[0, 2], Base::ElementwiseLerp);
         assert!((l[225 + 20] - 0.5 * (rows[20] + rows[450 + 20])).abs() < 1e-6);
+    }
+
+    #[test]
+    fn window_keys_are_even_or_random_with_the_ends_kept() {
+        let mut c = InbetweenConfig::tiny();
+        assert_eq!(window_keys(&c, 7, 0, 181), vec![0, 45, 90, 135, 180]);
+        c.random_keys = true;
+        let mut differ = false;
+        for i in 0..20 {
+            let k = window_keys(&c, 7, i, 181);
+            assert_eq!(k.len(), 5);
+            assert_eq!((k[0], k[4]), (0, 180));
+            assert!(k.windows(2).all(|w| w[0] < w[1]), "{k:?}");
+            assert_eq!(k, window_keys(&c, 7, i, 181), "seeded");
+            differ |= k != [0, 45, 90, 135, 180];
+        }
+        assert!(differ);
+        // More keys than frames: every frame is a key.
+        assert_eq!(window_keys(&c, 7, 0, 4), vec![0, 1, 2, 3]);
     }
 }
