@@ -299,7 +299,13 @@ pub fn run_eval(args: &Args) -> anyhow::Result<String> {
         bail!("--data goes with --run R (checkpoint mode) or --task inbetween");
     }
     match &args.run {
-        Some(run) => Ok(evaluate_run(&args.run_request(run)?)?.table),
+        Some(run) => {
+            let req = args.run_request(run)?;
+            if qean_pipeline::vq::is_vq_run(&req.run, req.checkpoint.as_deref()) {
+                return Ok(qean_pipeline::vq::evaluate_vq(&req)?.1);
+            }
+            Ok(evaluate_run(&req)?.table)
+        }
         None => Ok(evaluate_dirs(&args.dir_request()?)?.1),
     }
 }

@@ -12,6 +12,7 @@ pub mod run;
 pub mod schedule;
 pub mod sweep;
 pub mod tsmt;
+pub mod vq;
 
 pub use model::{ConfigError, ModelConfig};
 pub use recipe::{AudioNorm, Predict, RecipeBase, RecipeConfig, RolloutMode};

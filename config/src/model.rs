@@ -32,6 +32,8 @@ pub enum Arch {
     /// Lin's transformer in-betweeners (SPEC §12.4c): the `[inbetween]` table; the rest of `[model]` is
     /// unused.
     Inbetween,
+    /// The motion VQ-VAE of the multi-modal control system (SPEC §13.2): the `[vq]` table.
+    Vqvae,
 }
 
 /// Attention score scale `s` (SPEC §4.1).

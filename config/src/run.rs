@@ -17,6 +17,7 @@ use crate::inbetween::InbetweenConfig;
 use crate::recipe::RecipeConfig;
 use crate::schedule::ScheduleConfig;
 use crate::tsmt::TsmtConfig;
+use crate::vq::VqConfig;
 
 /// `[data]`: where the AIST++-layout dataset is and which splits to use.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -139,6 +140,9 @@ pub struct RunConfig {
     /// Lin's transformer in-betweeners (`model.arch = "inbetween"` only; written only then).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub inbetween: Option<InbetweenConfig>,
+    /// The motion VQ-VAE (`model.arch = "vqvae"` only; written only then).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vq: Option<VqConfig>,
 }
 
 /// What one file of an `extends` chain may hold (every table optional and partial).
@@ -155,6 +159,7 @@ struct RunFile {
     recipe: Option<RecipeConfig>,
     tsmt: Option<TsmtConfig>,
     inbetween: Option<InbetweenConfig>,
+    vq: Option<VqConfig>,
 }
 
 fn check_file(path: &Path, text: &str) -> Result<(), ConfigError> {
@@ -256,6 +261,9 @@ impl RunConfig {
         if config.is_inbetween() && config.inbetween.is_none() {
             config.inbetween = Some(InbetweenConfig::default());
         }
+        if config.is_vqvae() && config.vq.is_none() {
+            config.vq = Some(VqConfig::default());
+        }
         config
             .validate()
             .map_err(|m| ConfigError::new(path, None, m))?;
@@ -285,6 +293,18 @@ impl RunConfig {
             (Some(_), false) => {
                 return Err(format!(
                     "an [inbetween] table is for model.arch = \"inbetween\", not {:?}",
+                    self.model.arch
+                )
+                .to_lowercase())
+            }
+            (None, false) => {}
+        }
+        match (&self.vq, self.is_vqvae()) {
+            (Some(v), true) => v.validate()?,
+            (None, true) => return Err("model.arch = \"vqvae\" needs a [vq] table".into()),
+            (Some(_), false) => {
+                return Err(format!(
+                    "a [vq] table is for model.arch = \"vqvae\", not {:?}",
                     self.model.arch
                 )
                 .to_lowercase())
@@ -346,6 +366,11 @@ impl RunConfig {
         self.model.arch == crate::model::Arch::Inbetween
     }
 
+    /// Whether the run is the motion VQ-VAE (`model.arch = "vqvae"`).
+    pub fn is_vqvae(&self) -> bool {
+        self.model.arch == crate::model::Arch::Vqvae
+    }
+
     /// The `[inbetween]` table of an in-betweener run (the paper preset for any other run).
     pub fn inbetween(&self) -> InbetweenConfig {
         self.inbetween.clone().unwrap_or_default()
@@ -378,6 +403,14 @@ impl RunConfig {
     /// §11.7: W input frames, the W frames after each, and the music rows s..s+W, of which the
     /// model takes s+1..s+W).
     pub fn window_spec(&self) -> WindowSpec {
+        if let (true, Some(v)) = (self.is_vqvae(), &self.vq) {
+            return WindowSpec {
+                motion_len: v.window,
+                target_len: v.window,
+                target_shift: 0,
+                audio_len: v.window,
+            };
+        }
         if let (true, Some(t)) = (self.is_tsmt(), &self.tsmt) {
             return WindowSpec {
                 motion_len: t.window,
@@ -415,6 +448,14 @@ impl RunConfig {
 
     /// One line: architecture, size and run length.
     pub fn summary(&self) -> String {
+        if let (true, Some(v)) = (self.is_vqvae(), &self.vq) {
+            return format!(
+                "vq-vae width {} codes {}×{} depth {} down_t {} window {} {:?} mu {} commit {}; batch {} steps {} seed {}",
+                v.width, v.codes, v.code_dim, v.depth, v.down_t, v.window, v.quantizer, v.mu, v.commit,
+                self.train.batch_size, self.train.steps, self.train.seed
+            )
+            .to_lowercase();
+        }
         if let (true, Some(i)) = (self.is_inbetween(), &self.inbetween) {
             return format!(
                 "in-betweener {} hidden {} heads {} ffn {} layers {} (+{} music) dropout {} base {:?} keys {}{}{}; batch {} steps {} seed {}",

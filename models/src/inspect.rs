@@ -56,6 +56,17 @@ pub fn inspect(path: &Path) -> Result<Inspection, ConfigError> {
             summary: inbetween_summary(&ib, params, Some(path)),
         });
     }
+    if config.arch == Arch::Vqvae {
+        let vq = RunConfig::load(path, &[])?.vq.unwrap_or_default();
+        let model = crate::vqvae::VqVae::new(&vq, &Device::flex());
+        let (enc, dec) = crate::vqvae::network_params(&model);
+        return Ok(Inspection {
+            path: path.to_path_buf(),
+            config,
+            params: enc + dec,
+            summary: vq_summary(&vq, enc, dec, Some(path)),
+        });
+    }
     let model = DanceModel::new(&config, &Device::flex());
     let params = model.num_params();
     let summary = summary(&config, &model, Some(path));
@@ -161,6 +172,7 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
         Arch::Qean => "QEAN",
         Arch::Tsmt => "TSMT (configured by [tsmt])",
         Arch::Inbetween => "in-betweener (configured by [inbetween])",
+        Arch::Vqvae => "motion VQ-VAE (configured by [vq])",
     };
     let from = path
         .map(|p| format!(" from {}", p.display()))
@@ -239,6 +251,58 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
     for (name, n) in parts.into_iter().filter(|(_, n)| *n > 0) {
         let _ = writeln!(s, "  {name:<28} {:>13}", group_digits(n));
     }
+    s
+}
+
+/// What `qean inspect` prints for a motion VQ-VAE config (SPEC §13.2, counts of §13.9).
+pub fn vq_summary(
+    c: &qean_config::vq::VqConfig,
+    enc: usize,
+    dec: usize,
+    path: Option<&Path>,
+) -> String {
+    let from = path
+        .map(|p| format!(" from {}", p.display()))
+        .unwrap_or_default();
+    let mut s = format!("model: motion VQ-VAE (SPEC §13.2, T2M-GPT encoder/decoder){from}\n");
+    let rate = c.rate();
+    let _ = writeln!(
+        s,
+        "  encoder pos72 [T, 72] → Conv(72 → {w}) → {d} × [Conv(k4, s2) + {depth} residual blocks ({:?})] → Conv({w} → {c}) → z [T/{rate}, {c}]: {}",
+        c.enc_dilations,
+        group_digits(enc),
+        w = c.width,
+        d = c.down_t,
+        depth = c.depth,
+        c = c.code_dim,
+    );
+    let _ = writeln!(
+        s,
+        "  quantiser {:?}: {} codes × {} (codebook buffer {}, not counted; μ {}, commitment β {})",
+        c.quantizer,
+        c.codes,
+        c.code_dim,
+        group_digits(c.codes * c.code_dim),
+        c.mu,
+        c.commit
+    );
+    let _ = writeln!(
+        s,
+        "  decoder {:?}: {}; window {} frames = {} tokens",
+        c.decoder,
+        group_digits(dec),
+        c.window,
+        c.window / rate
+    );
+    let _ = writeln!(
+        s,
+        "  closed form (§13.9): encoder {} + decoder {} = {}",
+        group_digits(crate::vqvae::encdec::encoder_params(c)),
+        group_digits(crate::vqvae::encdec::decoder_params(c)),
+        group_digits(
+            crate::vqvae::encdec::encoder_params(c) + crate::vqvae::encdec::decoder_params(c)
+        )
+    );
     s
 }
 

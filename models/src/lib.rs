@@ -34,6 +34,7 @@ pub mod sampler;
 pub mod spe;
 pub mod transformer;
 pub mod tsmt;
+pub mod vqvae;
 
 #[cfg(test)]
 pub(crate) mod testing;

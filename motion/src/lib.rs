@@ -7,6 +7,7 @@ pub mod fk;
 pub mod ik;
 pub mod joints_file;
 pub mod motion;
+pub mod pos72;
 pub mod rotation;
 pub mod seam;
 pub mod skeleton;

@@ -228,7 +228,7 @@ fn eval_dir_name(step: u64, tag: Option<&str>) -> Result<String> {
 }
 
 /// The test and val sequences whose motion files exist (at least 2), with their music features cached.
-fn protocol_sequences(ds: &Dataset) -> Result<Vec<String>> {
+pub(crate) fn protocol_sequences(ds: &Dataset) -> Result<Vec<String>> {
     let mut names = ds.split(Split::Test);
     names.extend(ds.split(Split::Val));
     names.retain(|n| {
@@ -455,7 +455,7 @@ fn write_generated(
 }
 
 /// The ground-truth reference set: every non-ignored motion, full length.
-fn reference_set(ds: &Dataset, root: qean_motion::FkRoot) -> Result<Vec<Sequence>> {
+pub(crate) fn reference_set(ds: &Dataset, root: qean_motion::FkRoot) -> Result<Vec<Sequence>> {
     let mut reference = Vec::new();
     for name in ds.all_sequences()? {
         let m = Motion::read_pkl(&ds.motion_path(&name))?;
@@ -504,6 +504,7 @@ fn label(config: &qean_config::RunConfig, step: u64) -> String {
         qean_config::model::Arch::Fact => format!("FACT step {step}"),
         qean_config::model::Arch::Tsmt => format!("TSMT step {step}"),
         qean_config::model::Arch::Inbetween => format!("in-betweener step {step}"),
+        qean_config::model::Arch::Vqvae => format!("VQ-VAE step {step}"),
         qean_config::model::Arch::Qean => format!(
             "QEAN ({:?} positions, {:?} attention) step {step}",
             m.position, m.attention

@@ -12,5 +12,6 @@ pub mod inbetween;
 pub mod inbetweener;
 pub mod keyframes;
 pub mod tsmt;
+pub mod vq;
 
 pub use error::{Error, Result};

@@ -124,6 +124,12 @@ impl Checkpoint {
                 "an in-betweener checkpoint, not FACT or QEAN: it does not generate dances from music",
             ));
         }
+        if self.config.is_vqvae() {
+            return Err(Error::at(
+                &self.dir,
+                "a motion VQ-VAE checkpoint, not FACT or QEAN: it encodes and decodes dances, it does not generate them",
+            ));
+        }
         crate::family::load_checkpoint_model(&crate::fact_qean::FactQean, self, device)
     }
 
@@ -148,6 +154,14 @@ impl Checkpoint {
             )?;
             return Ok(qean_models::params::named_parameters(&model));
         }
+        if self.config.is_vqvae() {
+            let model = crate::family::load_checkpoint_model(
+                &crate::vqvae::VqFamily::default(),
+                self,
+                device,
+            )?;
+            return Ok(qean_models::params::named_parameters(&model));
+        }
         Ok(qean_models::params::named_parameters(
             &self.load_model(device)?,
         ))
@@ -158,6 +172,7 @@ impl Checkpoint {
         match (&self.config.tsmt, &self.config.inbetween) {
             (Some(t), _) if self.config.is_tsmt() => toml::to_string(t),
             (_, Some(i)) if self.config.is_inbetween() => toml::to_string(i),
+            _ if self.config.is_vqvae() => toml::to_string(&self.config.vq),
             _ => toml::to_string(&self.config.model),
         }
         .expect("configs serialise")
@@ -195,6 +210,30 @@ impl Checkpoint {
                     &self.dir,
                     format!(
                         "the checkpoint is another in-betweener: {:?} (checkpoint) vs {:?} (variant, hidden, heads, ffn, layers, audio_layers, max_len, decoder, merge_axis)",
+                        shape(a),
+                        shape(b)
+                    ),
+                ));
+            }
+        }
+        if let (Some(a), Some(b)) = (&self.config.vq, &config.vq) {
+            let shape = |c: &qean_config::vq::VqConfig| {
+                (
+                    c.width,
+                    c.code_dim,
+                    c.codes,
+                    c.depth,
+                    c.down_t,
+                    c.enc_dilations,
+                    c.decoder,
+                    c.quantizer,
+                )
+            };
+            if shape(a) != shape(b) {
+                return Err(Error::at(
+                    &self.dir,
+                    format!(
+                        "the checkpoint is another VQ-VAE: {:?} (checkpoint) vs {:?} (width, code_dim, codes, depth, down_t, enc_dilations, decoder, quantizer)",
                         shape(a),
                         shape(b)
                     ),

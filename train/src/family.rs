@@ -92,6 +92,12 @@ pub trait Family {
         device: &Device,
     ) -> f64;
 
+    /// After each successful update: state the optimiser does not own (e.g. the VQ-VAE's EMA codebook)
+    /// written into the model. Default: the model unchanged.
+    fn after_update(&self, model: Self::Model) -> Self::Model {
+        model
+    }
+
     /// A factor on the schedule's learning rate at every step (e.g. TSMT's `lr_start_factor`).
     /// Default: 1.
     fn lr_factor(&self, _config: &RunConfig) -> f64 {

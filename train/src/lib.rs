@@ -18,6 +18,7 @@ pub mod run_dir;
 pub mod sweep;
 pub mod trainer;
 pub mod tsmt;
+pub mod vqvae;
 
 pub use checkpoint::Checkpoint;
 pub use family::Family;

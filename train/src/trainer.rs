@@ -334,6 +334,9 @@ pub fn train(config: RunConfig, opts: &TrainOptions) -> Result<TrainOutcome> {
     if config.is_inbetween() {
         return train_family(&mut crate::inbetween::InbetweenFamily, config, opts);
     }
+    if config.is_vqvae() {
+        return train_family(&mut crate::vqvae::VqFamily::default(), config, opts);
+    }
     train_family(&mut FactQean, config, opts)
 }
 
@@ -557,7 +560,7 @@ fn run_loop<F: Family>(s: &mut Session<F>, opts: &TrainOptions) -> Result<TrainO
             reporter.finish();
             return Err(s.diverged(format!("the loss of update {} is {value}", s.step + 1)));
         }
-        s.model = model;
+        s.model = s.family.after_update(model);
         s.step += 1;
         s.last_loss = Some(value);
 
