@@ -34,6 +34,8 @@ pub enum Arch {
     Inbetween,
     /// The motion VQ-VAE of the multi-modal control system (SPEC §13.2): the `[vq]` table.
     Vqvae,
+    /// The music-to-dance GPT over a frozen VQ-VAE's tokens (SPEC §13.3): the `[gpt]` table.
+    Gpt,
 }
 
 /// Attention score scale `s` (SPEC §4.1).

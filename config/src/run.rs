@@ -13,6 +13,7 @@ use qean_aistpp::windows::WindowSpec;
 use qean_motion::motion::Layout;
 use serde::{Deserialize, Serialize};
 
+use crate::gpt::GptConfig;
 use crate::inbetween::InbetweenConfig;
 use crate::recipe::RecipeConfig;
 use crate::schedule::ScheduleConfig;
@@ -143,6 +144,9 @@ pub struct RunConfig {
     /// The motion VQ-VAE (`model.arch = "vqvae"` only; written only then).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub vq: Option<VqConfig>,
+    /// The music-to-dance GPT (`model.arch = "gpt"` only; written only then).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gpt: Option<GptConfig>,
 }
 
 /// What one file of an `extends` chain may hold (every table optional and partial).
@@ -160,6 +164,7 @@ struct RunFile {
     tsmt: Option<TsmtConfig>,
     inbetween: Option<InbetweenConfig>,
     vq: Option<VqConfig>,
+    gpt: Option<GptConfig>,
 }
 
 fn check_file(path: &Path, text: &str) -> Result<(), ConfigError> {
@@ -264,6 +269,9 @@ impl RunConfig {
         if config.is_vqvae() && config.vq.is_none() {
             config.vq = Some(VqConfig::default());
         }
+        if config.is_gpt() && config.gpt.is_none() {
+            config.gpt = Some(GptConfig::default());
+        }
         config
             .validate()
             .map_err(|m| ConfigError::new(path, None, m))?;
@@ -293,6 +301,18 @@ impl RunConfig {
             (Some(_), false) => {
                 return Err(format!(
                     "an [inbetween] table is for model.arch = \"inbetween\", not {:?}",
+                    self.model.arch
+                )
+                .to_lowercase())
+            }
+            (None, false) => {}
+        }
+        match (&self.gpt, self.is_gpt()) {
+            (Some(g), true) => g.validate()?,
+            (None, true) => return Err("model.arch = \"gpt\" needs a [gpt] table".into()),
+            (Some(_), false) => {
+                return Err(format!(
+                    "a [gpt] table is for model.arch = \"gpt\", not {:?}",
                     self.model.arch
                 )
                 .to_lowercase())
@@ -366,6 +386,11 @@ impl RunConfig {
         self.model.arch == crate::model::Arch::Inbetween
     }
 
+    /// Whether the run is the music-to-dance GPT (`model.arch = "gpt"`).
+    pub fn is_gpt(&self) -> bool {
+        self.model.arch == crate::model::Arch::Gpt
+    }
+
     /// Whether the run is the motion VQ-VAE (`model.arch = "vqvae"`).
     pub fn is_vqvae(&self) -> bool {
         self.model.arch == crate::model::Arch::Vqvae
@@ -384,6 +409,9 @@ impl RunConfig {
     /// Ground-truth frames a generated dance starts with: the model's motion window (FACT, QEAN) or
     /// `tsmt.seed_frames`.
     pub fn seed_frames(&self) -> usize {
+        if let (true, Some(g)) = (self.is_gpt(), &self.gpt) {
+            return g.seed_tokens * g.rate;
+        }
         match (&self.tsmt, self.is_tsmt()) {
             (Some(t), true) => t.seed_frames,
             _ => self.model.motion_len,
@@ -393,6 +421,9 @@ impl RunConfig {
     /// The shortest music the sampler can dance to: the music window (FACT, QEAN), or the seed
     /// and one frame to hear (TSMT).
     pub fn min_music_frames(&self) -> usize {
+        if let (true, Some(g)) = (self.is_gpt(), &self.gpt) {
+            return (g.seed_tokens + 1) * g.rate;
+        }
         match (&self.tsmt, self.is_tsmt()) {
             (Some(t), true) => t.seed_frames + 1,
             _ => self.model.audio_len,
@@ -403,6 +434,14 @@ impl RunConfig {
     /// §11.7: W input frames, the W frames after each, and the music rows s..s+W, of which the
     /// model takes s+1..s+W).
     pub fn window_spec(&self) -> WindowSpec {
+        if let (true, Some(g)) = (self.is_gpt(), &self.gpt) {
+            return WindowSpec {
+                motion_len: g.window,
+                target_len: g.window,
+                target_shift: 1,
+                audio_len: g.window + 1 + g.music_lookahead,
+            };
+        }
         if let (true, Some(v)) = (self.is_vqvae(), &self.vq) {
             return WindowSpec {
                 motion_len: v.window,
@@ -448,6 +487,14 @@ impl RunConfig {
 
     /// One line: architecture, size and run length.
     pub fn summary(&self) -> String {
+        if let (true, Some(g)) = (self.is_gpt(), &self.gpt) {
+            return format!(
+                "gpt hidden {} heads {} layers {} + {} window {} codes {} {:?}; batch {} steps {} seed {}",
+                g.hidden, g.heads, g.base_layers, g.head_layers, g.window, g.codes, g.m_layout,
+                self.train.batch_size, self.train.steps, self.train.seed
+            )
+            .to_lowercase();
+        }
         if let (true, Some(v)) = (self.is_vqvae(), &self.vq) {
             return format!(
                 "vq-vae width {} codes {}×{} depth {} down_t {} window {} {:?} mu {} commit {}; batch {} steps {} seed {}",

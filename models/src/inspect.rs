@@ -56,6 +56,17 @@ pub fn inspect(path: &Path) -> Result<Inspection, ConfigError> {
             summary: inbetween_summary(&ib, params, Some(path)),
         });
     }
+    if config.arch == Arch::Gpt {
+        let g = RunConfig::load(path, &[])?.gpt.unwrap_or_default();
+        let model = crate::control::gpt::Gpt::new(&g, &Device::flex());
+        let params = model.num_params();
+        return Ok(Inspection {
+            path: path.to_path_buf(),
+            config,
+            params,
+            summary: gpt_summary(&g, &model, Some(path)),
+        });
+    }
     if config.arch == Arch::Vqvae {
         let vq = RunConfig::load(path, &[])?.vq.unwrap_or_default();
         let model = crate::vqvae::VqVae::new(&vq, &Device::flex());
@@ -173,6 +184,7 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
         Arch::Tsmt => "TSMT (configured by [tsmt])",
         Arch::Inbetween => "in-betweener (configured by [inbetween])",
         Arch::Vqvae => "motion VQ-VAE (configured by [vq])",
+        Arch::Gpt => "music-to-dance GPT (configured by [gpt])",
     };
     let from = path
         .map(|p| format!(" from {}", p.display()))
@@ -251,6 +263,66 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
     for (name, n) in parts.into_iter().filter(|(_, n)| *n > 0) {
         let _ = writeln!(s, "  {name:<28} {:>13}", group_digits(n));
     }
+    s
+}
+
+/// What `qean inspect` prints for a GPT config (SPEC §13.3, counts of §13.9).
+pub fn gpt_summary(
+    c: &qean_config::gpt::GptConfig,
+    model: &crate::control::gpt::Gpt,
+    path: Option<&Path>,
+) -> String {
+    let from = path
+        .map(|p| format!(" from {}", p.display()))
+        .unwrap_or_default();
+    let (m, h, t) = crate::control::gpt::gpt_params(c);
+    let mut s = format!("model: music-to-dance GPT (SPEC §13.3, Bailando/T2M-GPT){from}\n");
+    let _ = writeln!(
+        s,
+        "  M-Base {:?}: music MLP({} → {d}) + {} codes + Start/Mask, {} blocks (D {d}, {} heads), window {} tokens: {}",
+        c.m_layout,
+        crate::control::gpt::music_token_dim(c),
+        c.codes,
+        c.base_layers,
+        c.heads,
+        c.window,
+        group_digits(model.m_base.num_params()),
+        d = c.hidden,
+    );
+    let _ = writeln!(
+        s,
+        "  T-Base: text Linear({} → {}) + sincos positions, {} blocks: {}",
+        c.text_dim,
+        c.hidden,
+        c.base_layers,
+        group_digits(model.t_base.num_params())
+    );
+    let _ = writeln!(
+        s,
+        "  head (shared): {} blocks, LN, Linear({} → {} + End): {}",
+        c.head_layers,
+        c.hidden,
+        c.codes,
+        group_digits(model.head.num_params())
+    );
+    let _ = writeln!(
+        s,
+        "  music-only (M-Base + head): {}; frozen VQ-VAE: {}",
+        group_digits(m + h),
+        c.vqvae_run
+            .as_ref()
+            .map_or("not set (gpt.vqvae_run)".into(), |p| p
+                .display()
+                .to_string())
+    );
+    let _ = writeln!(
+        s,
+        "  closed form (§13.9): {} + {} + {} = {}",
+        group_digits(m),
+        group_digits(h),
+        group_digits(t),
+        group_digits(m + h + t)
+    );
     s
 }
 

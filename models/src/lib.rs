@@ -14,6 +14,7 @@
 pub mod attention;
 pub mod autoregress;
 pub mod backend;
+pub mod control;
 pub mod cross_prefix;
 pub mod error;
 pub mod fact;

@@ -45,6 +45,9 @@ impl DanceModel {
             Arch::Inbetween => panic!(
                 "DanceModel::new: an in-betweener is built by qean_models::inbetween::Inbetweener from its [inbetween] table"
             ),
+            Arch::Gpt => panic!(
+                "DanceModel::new: a GPT is built by qean_models::control::gpt::Gpt from its [gpt] table"
+            ),
             Arch::Vqvae => panic!(
                 "DanceModel::new: a VQ-VAE is built by qean_models::vqvae::VqVae from its [vq] table"
             ),

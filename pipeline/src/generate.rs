@@ -158,6 +158,10 @@ pub fn generate(
         let seed = Motion::from_layout(seed, layout).map_err(Error::msg)?;
         return crate::tsmt::generate(ck, songs, &seed, opts, out, &mut progress);
     }
+    if ck.config.is_gpt() {
+        let seed = Motion::from_layout(seed, ck.config.layout()).map_err(Error::msg)?;
+        return crate::gpt::generate(ck, songs, &seed, opts, out, &mut progress);
+    }
     qean_config::recipe::check_ensemble(
         ("ensemble", opts.ensemble),
         ("ensemble decay", opts.ensemble_decay),

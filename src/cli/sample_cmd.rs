@@ -89,13 +89,15 @@ pub struct SampleArgs {
     /// Backend (default: the run's).
     #[arg(long, value_enum)]
     pub backend: Option<qean_models::backend::Backend>,
-    /// TSMT: sampling temperature (0 = the most likely bin; default: the run's tsmt.temperature, 1).
+    /// TSMT and GPT: sampling temperature (0 = the most likely bin or code; default: the run's
+    /// tsmt.temperature / gpt.temperature, 1).
     #[arg(long)]
     pub temperature: Option<f64>,
-    /// TSMT: draw only from the k most likely bins (0 = all; default: the run's tsmt.top_k).
+    /// TSMT and GPT: draw only from the k most likely bins or codes (0 = all; default: the run's top_k;
+    /// a GPT's is 1, greedy as Bailando).
     #[arg(long)]
     pub top_k: Option<usize>,
-    /// TSMT: seed of the draws.
+    /// TSMT and GPT: seed of the draws.
     #[arg(long, default_value_t = 0)]
     pub sample_seed: u64,
 }
@@ -108,7 +110,9 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         bail!("--frames must be at least 1");
     }
     let ck = checkpoint::resolve_in_run(&a.run, a.checkpoint.as_deref())?;
-    if !ck.config.is_tsmt() && (a.temperature.is_some() || a.top_k.is_some() || a.sample_seed != 0)
+    if !ck.config.is_tsmt()
+        && !ck.config.is_gpt()
+        && (a.temperature.is_some() || a.top_k.is_some() || a.sample_seed != 0)
     {
         tracing::warn!(
             "--temperature, --top-k and --sample-seed are for TSMT runs; this {:?} run is deterministic and ignores them",

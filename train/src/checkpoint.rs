@@ -124,6 +124,12 @@ impl Checkpoint {
                 "an in-betweener checkpoint, not FACT or QEAN: it does not generate dances from music",
             ));
         }
+        if self.config.is_gpt() {
+            return Err(Error::at(
+                &self.dir,
+                "a music-to-dance GPT checkpoint, not FACT or QEAN: `qean sample` and `qean eval` take it",
+            ));
+        }
         if self.config.is_vqvae() {
             return Err(Error::at(
                 &self.dir,
@@ -154,6 +160,14 @@ impl Checkpoint {
             )?;
             return Ok(qean_models::params::named_parameters(&model));
         }
+        if self.config.is_gpt() {
+            let model = crate::family::load_checkpoint_model(
+                &crate::gpt::GptFamily::default(),
+                self,
+                device,
+            )?;
+            return Ok(qean_models::params::named_parameters(&model));
+        }
         if self.config.is_vqvae() {
             let model = crate::family::load_checkpoint_model(
                 &crate::vqvae::VqFamily::default(),
@@ -173,6 +187,7 @@ impl Checkpoint {
             (Some(t), _) if self.config.is_tsmt() => toml::to_string(t),
             (_, Some(i)) if self.config.is_inbetween() => toml::to_string(i),
             _ if self.config.is_vqvae() => toml::to_string(&self.config.vq),
+            _ if self.config.is_gpt() => toml::to_string(&self.config.gpt),
             _ => toml::to_string(&self.config.model),
         }
         .expect("configs serialise")
@@ -210,6 +225,31 @@ impl Checkpoint {
                     &self.dir,
                     format!(
                         "the checkpoint is another in-betweener: {:?} (checkpoint) vs {:?} (variant, hidden, heads, ffn, layers, audio_layers, max_len, decoder, merge_axis)",
+                        shape(a),
+                        shape(b)
+                    ),
+                ));
+            }
+        }
+        if let (Some(a), Some(b)) = (&self.config.gpt, &config.gpt) {
+            let shape = |c: &qean_config::gpt::GptConfig| {
+                (
+                    c.codes,
+                    c.rate,
+                    c.hidden,
+                    c.heads,
+                    c.base_layers,
+                    c.head_layers,
+                    c.window,
+                    c.m_layout,
+                    c.text_dim,
+                )
+            };
+            if shape(a) != shape(b) {
+                return Err(Error::at(
+                    &self.dir,
+                    format!(
+                        "the checkpoint is another GPT: {:?} (checkpoint) vs {:?} (codes, rate, hidden, heads, base_layers, head_layers, window, m_layout, text_dim)",
                         shape(a),
                         shape(b)
                     ),

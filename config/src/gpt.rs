@@ -1,0 +1,132 @@
+//! `[gpt]`: the music-to-dance GPT of the multi-modal control system (SPEC §13.3–13.4, §13.8). It predicts the
+//! tokens of a frozen motion VQ-VAE (`vqvae_run`); every [DECISION] of §13.3 is a key here. Defaults are the
+//! paper preset (Bailando's GPT size).
+
+use serde::{Deserialize, Serialize};
+
+/// How M-Base lays out music and motion.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MLayout {
+    /// [music tokens | motion tokens], block-causal over the two streams (Bailando).
+    #[default]
+    TwoStream,
+    /// One stream: x_j = E(c_{s+j−1}) + MLP(a_{s+j}) + P_j.
+    Sum,
+}
+
+/// The `[gpt]` table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GptConfig {
+    /// The frozen VQ-VAE run (its newest checkpoint); `--set gpt.vqvae_run=DIR` overrides it.
+    pub vqvae_run: Option<std::path::PathBuf>,
+    /// Codebook size K of that VQ-VAE (checked against it; the head has K + 1 outputs).
+    pub codes: usize,
+    /// Frames per token of that VQ-VAE (8: a music token is 8 × 35 feature values).
+    pub rate: usize,
+    /// Width D.
+    pub hidden: usize,
+    pub heads: usize,
+    /// Blocks of each base (L_b) and of the shared head (L_h).
+    pub base_layers: usize,
+    pub head_layers: usize,
+    /// Tokens per window n.
+    pub window: usize,
+    pub dropout: f64,
+    pub m_layout: MLayout,
+    /// Stream m holds a_{s+j+δ}.
+    pub music_lookahead: usize,
+    /// CLIP embedding width of the text base.
+    pub text_dim: usize,
+    /// Probability of keeping each input token in music steps (1: no corruption).
+    pub m_pkeep: f64,
+    /// The same for text steps (T2M-GPT 0.5).
+    pub pkeep: f64,
+    /// One text step every `text_every` steps when text data exists (2: even music, odd text).
+    pub text_every: u64,
+    /// Seed tokens of sampling (15 = the first 120 ground-truth frames).
+    pub seed_tokens: usize,
+    /// Sampling: top-k (1 = greedy, Bailando; 0 = the full distribution) and temperature.
+    pub top_k: usize,
+    pub temperature: f64,
+}
+
+impl Default for GptConfig {
+    fn default() -> Self {
+        Self::paper()
+    }
+}
+
+impl GptConfig {
+    /// `paper` (SPEC §13.9, Bailando's size): D 768, 12 heads, 6 + 6 blocks, n 32, K 1024.
+    pub fn paper() -> Self {
+        GptConfig {
+            vqvae_run: None,
+            codes: 1024,
+            rate: 8,
+            hidden: 768,
+            heads: 12,
+            base_layers: 6,
+            head_layers: 6,
+            window: 32,
+            dropout: 0.1,
+            m_layout: MLayout::TwoStream,
+            music_lookahead: 0,
+            text_dim: 512,
+            m_pkeep: 1.0,
+            pkeep: 0.5,
+            text_every: 2,
+            seed_tokens: 15,
+            top_k: 1,
+            temperature: 1.0,
+        }
+    }
+
+    /// `tiny` (CPU): D 64, 4 heads, 2 + 2 blocks, n 16, K 128.
+    pub fn tiny() -> Self {
+        GptConfig {
+            codes: 128,
+            hidden: 64,
+            heads: 4,
+            base_layers: 2,
+            head_layers: 2,
+            window: 16,
+            ..Self::paper()
+        }
+    }
+
+    /// Values no GPT can use, as one message.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.hidden == 0 || self.heads == 0 || !self.hidden.is_multiple_of(self.heads) {
+            return Err(format!(
+                "gpt.hidden = {} must be a positive multiple of gpt.heads = {}",
+                self.hidden, self.heads
+            ));
+        }
+        if self.codes < 2 || self.window < 2 || self.rate == 0 || self.base_layers == 0 {
+            return Err("gpt.codes and gpt.window must be at least 2, gpt.rate and gpt.base_layers at least 1".into());
+        }
+        if !(0.0..1.0).contains(&self.dropout) {
+            return Err(format!(
+                "gpt.dropout must be in [0, 1), got {}",
+                self.dropout
+            ));
+        }
+        for (name, p) in [("m_pkeep", self.m_pkeep), ("pkeep", self.pkeep)] {
+            if !(p > 0.0 && p <= 1.0) {
+                return Err(format!("gpt.{name} must be in (0, 1], got {p}"));
+            }
+        }
+        if !(self.temperature.is_finite() && self.temperature > 0.0) {
+            return Err(format!(
+                "gpt.temperature must be positive, got {}",
+                self.temperature
+            ));
+        }
+        if self.text_every == 0 {
+            return Err("gpt.text_every must be at least 1".into());
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,251 @@
+//! The VQ-VAE + GPT at work (SPEC §13.8, music-only): the seed's tokens, then one token at a time from the
+//! music base and the shared head over a sliding window, decoded by the frozen VQ-VAE, the root integrated
+//! from the seed's first frame, rotations by IK, exported like every dance.
+
+use std::path::Path;
+
+use burn::tensor::{Device, Int, Tensor, TensorData};
+use qean_config::gpt::GptConfig;
+use qean_io::error::{Error, Result};
+use qean_models::control::gpt::{music_token_dim, Gpt};
+use qean_models::vqvae::VqVae;
+use qean_motion::fk::FkRoot;
+use qean_motion::ik::motion_from_joints;
+use qean_motion::motion::{Layout, Motion};
+use qean_motion::pos72::pos72_to_joints;
+use qean_render::export::{export_dance, ExportOptions};
+use qean_train::checkpoint::Checkpoint;
+use qean_train::gpt::{gpt_of, music_tokens, FrozenVq, GptFamily};
+use qean_train::vqvae::{denormalise, pos72_options, vq_of};
+use rand::{Rng, SeedableRng};
+
+use crate::generate::{GenerateOptions, Generated, Song};
+
+/// How each token is picked (SPEC §13.8 "Picking").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Picking {
+    /// 1 = greedy (Bailando), 0 = the full distribution.
+    pub top_k: usize,
+    pub temperature: f64,
+    pub seed: u64,
+}
+
+/// The next code from logits over K + 1 outputs: End (index K) forbidden; greedy takes the first maximum;
+/// otherwise logits/τ, entries below the k-th largest dropped (ties kept), a categorical draw.
+pub fn pick(logits: &[f32], codes: usize, p: &Picking, rng: &mut impl Rng) -> usize {
+    let l = &logits[..codes];
+    let best = l.iter().enumerate().fold(
+        (0, f32::NEG_INFINITY),
+        |b, (i, &v)| if v > b.1 { (i, v) } else { b },
+    );
+    if p.top_k == 1 || p.temperature == 0.0 {
+        return best.0;
+    }
+    let mut sorted: Vec<f32> = l.to_vec();
+    sorted.sort_by(|a, b| b.total_cmp(a));
+    let floor = if p.top_k == 0 || p.top_k >= codes {
+        f32::NEG_INFINITY
+    } else {
+        sorted[p.top_k - 1]
+    };
+    let weights: Vec<f64> = l
+        .iter()
+        .map(|&v| {
+            if v >= floor {
+                (((v - best.1) as f64) / p.temperature).exp()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let total: f64 = weights.iter().sum();
+    let mut u = rng.random::<f64>() * total;
+    for (i, w) in weights.iter().enumerate() {
+        if *w > 0.0 {
+            if u < *w {
+                return i;
+            }
+            u -= w;
+        }
+    }
+    best.0
+}
+
+/// Tokens n_total = min(seed + wanted, music tokens) from `seed` tokens and music tokens (n_total × 280).
+pub fn sample_tokens(
+    model: &Gpt,
+    g: &GptConfig,
+    seed: &[usize],
+    music: &[f32],
+    n_total: usize,
+    picking: &Picking,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Vec<usize> {
+    let device = Device::flex();
+    let w = music_token_dim(g);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(picking.seed);
+    let mut tokens = seed.to_vec();
+    for i in seed.len()..n_total {
+        let s = (i + 1).saturating_sub(g.window);
+        let len = i - s + 1;
+        let inputs: Vec<i64> = (s..=i)
+            .map(|j| {
+                if j == 0 {
+                    g.codes as i64
+                } else {
+                    tokens[j - 1] as i64
+                }
+            })
+            .collect();
+        let rows: Vec<f32> = (s..=i)
+            .flat_map(|j| {
+                let j = (j + g.music_lookahead).min(n_total - 1);
+                music[j * w..(j + 1) * w].iter().copied()
+            })
+            .collect();
+        let logits = model.music_logits(
+            Tensor::<2, Int>::from_data(TensorData::new(inputs, [1, len]), &device),
+            Tensor::from_data(TensorData::new(rows, [1, len, w]), &device),
+        );
+        let last: Vec<f32> = logits
+            .narrow(1, len - 1, 1)
+            .into_data()
+            .convert::<f32>()
+            .try_to_vec()
+            .expect("f32");
+        tokens.push(pick(&last, g.codes, picking, &mut rng));
+        progress(
+            (i + 1 - seed.len()) * g.rate,
+            (n_total - seed.len()) * g.rate,
+        );
+    }
+    tokens
+}
+
+/// The dance of `tokens`: the seed motion as given, then the decoded frames after it (every token decoded,
+/// the root integrated and continued from the seed's last frame), rotations by IK.
+pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize]) -> Motion {
+    let c = vq_of(&vq.checkpoint.config);
+    let n = tokens.len();
+    let mut rows = VqVae::host_rows(&vq.model.decode_tokens(tokens, 1, n));
+    denormalise(&mut rows, c);
+    let rows: Vec<f64> = rows.iter().map(|&v| v as f64).collect();
+    let seed_joints = seed.joints(FkRoot::Smpl);
+    let mut joints = pos72_to_joints(&rows, seed_joints[0], &pos72_options(c));
+    // The tail continues from the seed's last root: integrated from J_0(0) (SPEC §13.8) the decoded root
+    // drifts over the seed tokens by their reconstruction error, which showed as a jump at the seam.
+    let last = (seed.frames - 1) * 24;
+    let shift: [f64; 3] = std::array::from_fn(|k| seed_joints[last][k] - joints[last][k]);
+    for p in joints.iter_mut() {
+        for k in 0..3 {
+            p[k] += shift[k];
+        }
+    }
+    let tail = motion_from_joints(
+        &joints[seed.frames * 24..],
+        Default::default(),
+        FkRoot::Smpl,
+    );
+    let mut poses = seed.poses.clone();
+    poses.extend_from_slice(&tail.poses);
+    let mut trans: Vec<f64> = seed.trans.iter().map(|x| x / seed.scaling).collect();
+    trans.extend_from_slice(&tail.trans);
+    Motion::new(poses, trans, 1.0).expect("whole frames")
+}
+
+/// `qean sample` for a GPT run: one dance per song from the same seed.
+pub fn generate(
+    ck: &Checkpoint,
+    songs: &[Song],
+    seed: &Motion,
+    opts: &GenerateOptions,
+    out: &Path,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Vec<Generated>> {
+    let g = gpt_of(&ck.config);
+    let vq = FrozenVq::load(g)?;
+    let model =
+        qean_train::family::load_checkpoint_model(&GptFamily::default(), ck, &Device::flex())?;
+    let seed_tokens = vq.tokens(seed, seed.frames / g.rate * g.rate)?;
+    let picking = Picking {
+        top_k: opts.top_k.unwrap_or(g.top_k),
+        temperature: opts.temperature.unwrap_or(g.temperature),
+        seed: opts.sample_seed,
+    };
+    let mut written = Vec::new();
+    for song in songs {
+        let available = song.features.frames / g.rate;
+        let n_total = (seed_tokens.len() + opts.frames.div_ceil(g.rate)).min(available);
+        if n_total <= seed_tokens.len() {
+            return Err(Error::at(
+                &song.path,
+                format!(
+                    "the music has {} frames: shorter than the seed and one token ({} frames)",
+                    song.features.frames,
+                    (seed_tokens.len() + 1) * g.rate
+                ),
+            ));
+        }
+        if (n_total - seed_tokens.len()) * g.rate < opts.frames {
+            tracing::warn!(
+                "{}: the music ends after {} frames: generating {} frames instead of {}",
+                song.path.display(),
+                song.features.frames,
+                (n_total - seed_tokens.len()) * g.rate,
+                opts.frames
+            );
+        }
+        let music = music_tokens(&song.features.data, n_total, g.rate);
+        let tokens = sample_tokens(&model, g, &seed_tokens, &music, n_total, &picking, progress);
+        let mut motion = decode_dance(&vq, seed, &tokens);
+        let frames = (seed.frames + opts.frames).min(motion.frames);
+        motion = motion.slice(0, frames);
+        let paths = export_dance(
+            out,
+            &song.name,
+            &motion.to_layout(Layout::L219),
+            Layout::L219,
+            &ExportOptions {
+                seed_frames: seed.frames,
+                beats: Some(song.features.beats.clone()),
+                render: opts.render,
+                root: FkRoot::Smpl,
+            },
+        )?;
+        written.push(Generated {
+            name: song.name.clone(),
+            generated: motion.frames - seed.frames,
+            paths,
+            joints: motion.joints(FkRoot::Smpl),
+        });
+    }
+    Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn picking_forbids_end_keeps_ties_and_is_greedy_by_default() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+        let greedy = Picking {
+            top_k: 1,
+            temperature: 1.0,
+            seed: 0,
+        };
+        // End (index 3) has the largest logit but is never picked; ties go to the first maximum.
+        assert_eq!(pick(&[1.0, 2.0, 2.0, 9.0], 3, &greedy, &mut rng), 1);
+        // top-2 keeps both tied entries (and only them).
+        let top2 = Picking { top_k: 2, ..greedy };
+        for _ in 0..50 {
+            let k = pick(&[0.0, 2.0, 2.0, 2.0, 9.0], 4, &top2, &mut rng);
+            assert!((1..=3).contains(&k), "{k}");
+        }
+        let full = Picking { top_k: 0, ..greedy };
+        let drawn: std::collections::HashSet<usize> = (0..200)
+            .map(|_| pick(&[0.0, 0.0, 0.0, 50.0], 3, &full, &mut rng))
+            .collect();
+        assert_eq!(drawn.len(), 3);
+    }
+}

@@ -1,0 +1,194 @@
+//! The music-to-dance GPT over a frozen VQ-VAE (SPEC §13.3–13.4, §13.8) through the binary: §13.9's counts,
+//! a tiny VQ-VAE then a tiny GPT trained on a synthetic dataset with exact resume and an idle T-Base, a sampled
+//! dance in every format, and bad inputs (missing or different-shaped VQ-VAE run, music shorter than one token).
+
+mod common;
+use common::*;
+use std::path::Path;
+
+#[test]
+fn inspect_prints_the_gpt_counts() {
+    for (preset, count) in [
+        ("control/gpt_tiny.toml", "381,952"),
+        ("control/gpt_paper.toml", "131,195,904"),
+    ] {
+        let out = run_ok(qean().arg("inspect").arg(configs().join(preset)));
+        assert!(
+            out.contains(&format!("parameter count: {count}")),
+            "{preset}: {out}"
+        );
+    }
+}
+
+const VQ_SMALL: [&str; 4] = ["vq.width=16", "vq.code_dim=8", "vq.codes=16", "vq.depth=1"];
+const GPT_SMALL: [&str; 5] = [
+    "gpt.codes=16",
+    "gpt.hidden=16",
+    "gpt.heads=2",
+    "gpt.base_layers=1",
+    "gpt.head_layers=1",
+];
+
+fn train(config: &str, data: &Path, run: &Path, sets: &[String], resume: bool) -> String {
+    let mut c = qean();
+    c.arg("train").arg("--plain");
+    if resume {
+        c.arg("--resume").arg(run);
+    } else {
+        c.arg("--config")
+            .arg(configs().join(config))
+            .arg("--data")
+            .arg(data)
+            .arg("--run-dir")
+            .arg(run);
+    }
+    for s in sets {
+        c.arg("--set").arg(s);
+    }
+    run_ok(&mut c)
+}
+
+fn named(checkpoint: &Path, prefix: &str) -> Vec<qean_models::params::NamedParam> {
+    let ck = qean_train::checkpoint::resolve(checkpoint).unwrap();
+    ck.named_parameters(&burn::tensor::Device::flex())
+        .unwrap()
+        .into_iter()
+        .filter(|p| p.name.starts_with(prefix))
+        .collect()
+}
+
+#[test]
+fn tiny_vq_gpt_trains_resumes_and_dances() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dataset(dir.path());
+    let vq = dir.path().join("vq");
+    let mut sets: Vec<String> = VQ_SMALL.iter().map(|s| s.to_string()).collect();
+    sets.extend(["train.steps=4".into(), "train.batch_size=4".into()]);
+    train("control/vqvae_tiny.toml", &data, &vq, &sets, false);
+
+    let gpt_sets = |steps: u64| -> Vec<String> {
+        let mut s: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
+        s.extend([
+            string_set("gpt.vqvae_run", &vq),
+            format!("train.steps={steps}"),
+            "train.batch_size=4".into(),
+            "train.checkpoint_every=3".into(),
+            "train.val_every=3".into(),
+        ]);
+        s
+    };
+    let straight = dir.path().join("gpt");
+    train(
+        "control/gpt_tiny.toml",
+        &data,
+        &straight,
+        &gpt_sets(6),
+        false,
+    );
+    let split = dir.path().join("gpt_split");
+    train("control/gpt_tiny.toml", &data, &split, &gpt_sets(3), false);
+    train("control/gpt_tiny.toml", &data, &split, &gpt_sets(6), true);
+    let cks = checkpoints(&straight);
+    let last = |r: &Path| checkpoints(r).last().unwrap().clone();
+    assert_eq!(params_hash(&last(&straight)), params_hash(&last(&split)));
+    assert_eq!(losses(&straight), losses(&split));
+    // Music steps only (no text data): the T-Base is idle, bit for bit; the M-Base and the head move.
+    assert_eq!(named(&cks[0], "t_base"), named(&cks[1], "t_base"));
+    assert_ne!(named(&cks[0], "m_base"), named(&cks[1], "m_base"));
+    assert_ne!(named(&cks[0], "head"), named(&cks[1], "head"));
+
+    // A dance for the held-out song: seed 120 frames, 1200 generated, every export.
+    let out = dir.path().join("dance");
+    let song = shared().join("music/Kevin_MacLeod_-_Vibe_Ace.ogg");
+    let printed = run_ok(
+        qean()
+            .args(["sample", "--run"])
+            .arg(&straight)
+            .arg("--music")
+            .arg(&song)
+            .arg("--out")
+            .arg(&out),
+    );
+    assert!(
+        printed.contains("120 seed + 1200 generated frames"),
+        "{printed}"
+    );
+    assert!(printed.contains("speed per 5 s"), "{printed}");
+    let joints = qean_io::npy::read(&out.join("Kevin_MacLeod_-_Vibe_Ace.joints.npy")).unwrap();
+    assert_eq!(joints.shape, vec![1320, 24, 3]);
+    for ext in ["pkl", "bvh"] {
+        assert!(out
+            .join(format!("Kevin_MacLeod_-_Vibe_Ace.{ext}"))
+            .is_file());
+    }
+    // Greedy picking is deterministic.
+    let again = dir.path().join("again");
+    run_ok(
+        qean()
+            .args(["sample", "--run"])
+            .arg(&straight)
+            .arg("--music")
+            .arg(&song)
+            .arg("--out")
+            .arg(&again),
+    );
+    assert_eq!(
+        std::fs::read(out.join("Kevin_MacLeod_-_Vibe_Ace.joints.npy")).unwrap(),
+        std::fs::read(again.join("Kevin_MacLeod_-_Vibe_Ace.joints.npy")).unwrap()
+    );
+
+    // Bad inputs: one line each, nothing written.
+    let bad = dir.path().join("bad");
+    let mut missing: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
+    missing.push(string_set("gpt.vqvae_run", &dir.path().join("nope")));
+    let mut c = qean();
+    c.args(["train", "--plain", "--config"])
+        .arg(configs().join("control/gpt_tiny.toml"))
+        .arg("--data")
+        .arg(&data)
+        .arg("--run-dir")
+        .arg(&bad);
+    for s in &missing {
+        c.arg("--set").arg(s);
+    }
+    assert_clean_failure(&mut c, "gpt.vqvae_run");
+    assert!(!bad.exists());
+    let mut c = qean();
+    c.args(["train", "--plain", "--config"])
+        .arg(configs().join("control/gpt_tiny.toml"))
+        .arg("--data")
+        .arg(&data)
+        .arg("--run-dir")
+        .arg(&bad)
+        .arg("--set")
+        .arg(string_set("gpt.vqvae_run", &vq));
+    assert_clean_failure(
+        &mut c,
+        "the VQ-VAE has 16 codes at 8 frames per token; this GPT is built for 128",
+    );
+    assert!(!bad.exists());
+    let short = dir.path().join("short.wav");
+    let samples: Vec<u8> = (0..30720)
+        .flat_map(|i| (((i as f64 * 0.05).sin() * 8000.0) as i16).to_le_bytes())
+        .collect();
+    std::fs::write(
+        &short,
+        qean_io::testdata::wav_bytes(1, 30720, 1, 16, &samples, samples.len() as u32),
+    )
+    .unwrap();
+    assert_clean_failure(
+        qean()
+            .args(["sample", "--run"])
+            .arg(&straight)
+            .arg("--music")
+            .arg(&short)
+            .arg("--out")
+            .arg(dir.path().join("short_out")),
+        "short.wav",
+    );
+    assert!(!dir.path().join("short_out").join("short.pkl").exists());
+}
+
+fn string_set(key: &str, path: &Path) -> String {
+    format!("{key}={:?}", path.display().to_string())
+}
