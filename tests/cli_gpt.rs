@@ -137,6 +137,21 @@ fn tiny_vq_gpt_trains_resumes_and_dances() {
         std::fs::read(again.join("Kevin_MacLeod_-_Vibe_Ace.joints.npy")).unwrap()
     );
 
+    // Checkpoint mode: §7 on the decoded dances of the test + val split.
+    let table = run_ok(
+        qean()
+            .args(["eval", "--run"])
+            .arg(&straight)
+            .arg("--data")
+            .arg(&data)
+            .args(["--max-frames", "120"]),
+    );
+    assert!(
+        table.contains("| VQ-VAE + GPT step 6 (corrected) |"),
+        "{table}"
+    );
+    assert!(straight.join("eval/step-6/report.json").is_file());
+
     // Bad inputs: one line each, nothing written.
     let bad = dir.path().join("bad");
     let mut missing: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();

@@ -337,6 +337,8 @@ fn sample_dances(
     };
     let dances = if ck.config.is_tsmt() {
         sample_tsmt(req, ck, requests, opts, draw_seed, backend, &mut progress)?
+    } else if ck.config.is_gpt() {
+        sample_gpt(req, ck, requests, opts, draw_seed, &mut progress)?
     } else {
         let device = qean_models::backend::device(backend)?;
         let model = ck.load_model(&device)?;
@@ -376,6 +378,41 @@ fn sample_tsmt(
     };
     let motions = crate::tsmt::sample_motions(ck, &rollouts, progress)?;
     Ok(motions.iter().map(|m| m.to_layout(opts.layout)).collect())
+}
+
+/// The VQ-VAE + GPT's dances of the requests, as vectors in `opts.layout` (greedy unless the request's
+/// sampling overrides say otherwise).
+fn sample_gpt(
+    req: &RunEvalRequest,
+    ck: &qean_train::Checkpoint,
+    requests: &[SampleRequest],
+    opts: &SampleOptions,
+    draw_seed: u64,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Vec<Vec<f32>>> {
+    let dim = qean_aistpp::windows::AUDIO_DIM;
+    let g = qean_train::gpt::gpt_of(&ck.config);
+    let run = crate::gpt::GptRun::load(ck)?;
+    let picking = crate::gpt::Picking {
+        top_k: req.sampling.top_k.unwrap_or(g.top_k),
+        temperature: req.sampling.temperature.unwrap_or(g.temperature),
+        seed: draw_seed,
+    };
+    let mut out = Vec::new();
+    for (i, r) in requests.iter().enumerate() {
+        let seed = Motion::from_layout(&r.seed, opts.layout).map_err(Error::Invalid)?;
+        let music = (r.audio.as_slice(), r.audio.len() / dim);
+        let motion = run
+            .dance(g, &seed, music, req.max_frames, &picking, &mut |_, _| {})?
+            .ok_or_else(|| {
+                Error::Invalid(format!(
+                    "request {i}: the music is shorter than the seed and one token"
+                ))
+            })?;
+        progress((i + 1) * req.max_frames / requests.len(), req.max_frames);
+        out.push(motion.to_layout(opts.layout));
+    }
+    Ok(out)
 }
 
 /// S-music-D's further rollouts of a TSMT run (draw seeds after the main one), as joint sequences

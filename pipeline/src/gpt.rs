@@ -153,6 +153,53 @@ pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize]) -> Motion {
     Motion::new(poses, trans, 1.0).expect("whole frames")
 }
 
+/// A GPT run with its frozen VQ-VAE, loaded once.
+pub struct GptRun {
+    pub model: Gpt,
+    pub vq: FrozenVq,
+}
+
+impl GptRun {
+    pub fn load(ck: &Checkpoint) -> Result<GptRun> {
+        let vq = FrozenVq::load(gpt_of(&ck.config))?;
+        let model =
+            qean_train::family::load_checkpoint_model(&GptFamily::default(), ck, &Device::flex())?;
+        Ok(GptRun { model, vq })
+    }
+
+    /// One dance: the seed then up to `frames` generated frames for music features (frames × 35); `None`
+    /// when the music is shorter than the seed and one token.
+    pub fn dance(
+        &self,
+        g: &GptConfig,
+        seed: &Motion,
+        music: (&[f32], usize),
+        frames: usize,
+        picking: &Picking,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<Option<Motion>> {
+        let seed_tokens = self.vq.tokens(seed, seed.frames / g.rate * g.rate)?;
+        let available = music.1 / g.rate;
+        let n_total = (seed_tokens.len() + frames.div_ceil(g.rate)).min(available);
+        if n_total <= seed_tokens.len() {
+            return Ok(None);
+        }
+        let tokens = sample_tokens(
+            &self.model,
+            g,
+            &seed_tokens,
+            &music_tokens(music.0, n_total, g.rate),
+            n_total,
+            picking,
+            progress,
+        );
+        let motion = decode_dance(&self.vq, seed, &tokens);
+        Ok(Some(
+            motion.slice(0, (seed.frames + frames).min(motion.frames)),
+        ))
+    }
+}
+
 /// `qean sample` for a GPT run: one dance per song from the same seed.
 pub fn generate(
     ck: &Checkpoint,
@@ -163,10 +210,7 @@ pub fn generate(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Vec<Generated>> {
     let g = gpt_of(&ck.config);
-    let vq = FrozenVq::load(g)?;
-    let model =
-        qean_train::family::load_checkpoint_model(&GptFamily::default(), ck, &Device::flex())?;
-    let seed_tokens = vq.tokens(seed, seed.frames / g.rate * g.rate)?;
+    let run = GptRun::load(ck)?;
     let picking = Picking {
         top_k: opts.top_k.unwrap_or(g.top_k),
         temperature: opts.temperature.unwrap_or(g.temperature),
@@ -174,32 +218,26 @@ pub fn generate(
     };
     let mut written = Vec::new();
     for song in songs {
-        let available = song.features.frames / g.rate;
-        let n_total = (seed_tokens.len() + opts.frames.div_ceil(g.rate)).min(available);
-        if n_total <= seed_tokens.len() {
+        let music = (song.features.data.as_slice(), song.features.frames);
+        let Some(motion) = run.dance(g, seed, music, opts.frames, &picking, progress)? else {
             return Err(Error::at(
                 &song.path,
                 format!(
                     "the music has {} frames: shorter than the seed and one token ({} frames)",
                     song.features.frames,
-                    (seed_tokens.len() + 1) * g.rate
+                    seed.frames + g.rate
                 ),
             ));
-        }
-        if (n_total - seed_tokens.len()) * g.rate < opts.frames {
+        };
+        if motion.frames - seed.frames < opts.frames {
             tracing::warn!(
                 "{}: the music ends after {} frames: generating {} frames instead of {}",
                 song.path.display(),
                 song.features.frames,
-                (n_total - seed_tokens.len()) * g.rate,
+                motion.frames - seed.frames,
                 opts.frames
             );
         }
-        let music = music_tokens(&song.features.data, n_total, g.rate);
-        let tokens = sample_tokens(&model, g, &seed_tokens, &music, n_total, &picking, progress);
-        let mut motion = decode_dance(&vq, seed, &tokens);
-        let frames = (seed.frames + opts.frames).min(motion.frames);
-        motion = motion.slice(0, frames);
         let paths = export_dance(
             out,
             &song.name,
