@@ -301,8 +301,12 @@ pub fn run_eval(args: &Args) -> anyhow::Result<String> {
     match &args.run {
         Some(run) => {
             let req = args.run_request(run)?;
-            if qean_pipeline::vq::is_vq_run(&req.run, req.checkpoint.as_deref()) {
+            let ck = qean_train::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref());
+            if ck.as_ref().is_ok_and(|c| c.config.is_vqvae()) {
                 return Ok(qean_pipeline::vq::evaluate_vq(&req)?.1);
+            }
+            if ck.as_ref().is_ok_and(|c| c.config.is_genre_clf()) {
+                return Ok(qean_pipeline::genre_clf::evaluate_clf(&req)?.1);
             }
             Ok(evaluate_run(&req)?.table)
         }

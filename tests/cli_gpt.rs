@@ -207,3 +207,48 @@ fn tiny_vq_gpt_trains_resumes_and_dances() {
 fn string_set(key: &str, path: &Path) -> String {
     format!("{key}={:?}", path.display().to_string())
 }
+
+/// The genre classifier of §13.10: §13.9's count, a few steps, its accuracy report on the test + val split.
+#[test]
+fn genre_classifier_trains_and_reports_accuracy() {
+    let out = run_ok(
+        qean()
+            .arg("inspect")
+            .arg(configs().join("control/genre_clf_paper.toml")),
+    );
+    assert!(out.contains("parameter count: 845,322"), "{out}");
+    let dir = tempfile::tempdir().unwrap();
+    let data = dataset(dir.path());
+    let run = dir.path().join("clf");
+    let sets: Vec<String> = [
+        "genre_clf.width=8",
+        "genre_clf.window=64",
+        "train.steps=4",
+        "train.batch_size=4",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    train("control/genre_clf_tiny.toml", &data, &run, &sets, false);
+    let table = run_ok(
+        qean()
+            .args(["eval", "--run"])
+            .arg(&run)
+            .arg("--data")
+            .arg(&data),
+    );
+    assert!(
+        table.contains("Accuracy on 4 ground-truth test + val sequences"),
+        "{table}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(run.join("eval/step-4/report.json")).unwrap())
+            .unwrap();
+    let confusion = report["confusion"].as_array().unwrap();
+    assert_eq!(confusion.len(), 10);
+    let total: u64 = confusion
+        .iter()
+        .flat_map(|r| r.as_array().unwrap().iter().map(|c| c.as_u64().unwrap()))
+        .sum();
+    assert_eq!(total, 4);
+}

@@ -36,6 +36,8 @@ pub enum Arch {
     Vqvae,
     /// The music-to-dance GPT over a frozen VQ-VAE's tokens (SPEC §13.3): the `[gpt]` table.
     Gpt,
+    /// The genre classifier of the control evaluation (SPEC §13.10): the `[genre_clf]` table.
+    GenreClf,
 }
 
 /// Attention score scale `s` (SPEC §4.1).

@@ -13,6 +13,7 @@ use qean_aistpp::windows::WindowSpec;
 use qean_motion::motion::Layout;
 use serde::{Deserialize, Serialize};
 
+use crate::genre_clf::GenreClfConfig;
 use crate::gpt::GptConfig;
 use crate::inbetween::InbetweenConfig;
 use crate::recipe::RecipeConfig;
@@ -147,6 +148,9 @@ pub struct RunConfig {
     /// The music-to-dance GPT (`model.arch = "gpt"` only; written only then).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gpt: Option<GptConfig>,
+    /// The genre classifier (`model.arch = "genre_clf"` only; written only then).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub genre_clf: Option<GenreClfConfig>,
 }
 
 /// What one file of an `extends` chain may hold (every table optional and partial).
@@ -165,6 +169,7 @@ struct RunFile {
     inbetween: Option<InbetweenConfig>,
     vq: Option<VqConfig>,
     gpt: Option<GptConfig>,
+    genre_clf: Option<GenreClfConfig>,
 }
 
 fn check_file(path: &Path, text: &str) -> Result<(), ConfigError> {
@@ -269,6 +274,9 @@ impl RunConfig {
         if config.is_vqvae() && config.vq.is_none() {
             config.vq = Some(VqConfig::default());
         }
+        if config.is_genre_clf() && config.genre_clf.is_none() {
+            config.genre_clf = Some(GenreClfConfig::default());
+        }
         if config.is_gpt() && config.gpt.is_none() {
             config.gpt = Some(GptConfig::default());
         }
@@ -301,6 +309,20 @@ impl RunConfig {
             (Some(_), false) => {
                 return Err(format!(
                     "an [inbetween] table is for model.arch = \"inbetween\", not {:?}",
+                    self.model.arch
+                )
+                .to_lowercase())
+            }
+            (None, false) => {}
+        }
+        match (&self.genre_clf, self.is_genre_clf()) {
+            (Some(g), true) => g.validate()?,
+            (None, true) => {
+                return Err("model.arch = \"genre_clf\" needs a [genre_clf] table".into())
+            }
+            (Some(_), false) => {
+                return Err(format!(
+                    "a [genre_clf] table is for model.arch = \"genre_clf\", not {:?}",
                     self.model.arch
                 )
                 .to_lowercase())
@@ -386,6 +408,11 @@ impl RunConfig {
         self.model.arch == crate::model::Arch::Inbetween
     }
 
+    /// Whether the run is the genre classifier (`model.arch = "genre_clf"`).
+    pub fn is_genre_clf(&self) -> bool {
+        self.model.arch == crate::model::Arch::GenreClf
+    }
+
     /// Whether the run is the music-to-dance GPT (`model.arch = "gpt"`).
     pub fn is_gpt(&self) -> bool {
         self.model.arch == crate::model::Arch::Gpt
@@ -434,6 +461,14 @@ impl RunConfig {
     /// §11.7: W input frames, the W frames after each, and the music rows s..s+W, of which the
     /// model takes s+1..s+W).
     pub fn window_spec(&self) -> WindowSpec {
+        if let (true, Some(g)) = (self.is_genre_clf(), &self.genre_clf) {
+            return WindowSpec {
+                motion_len: g.window,
+                target_len: g.window,
+                target_shift: 0,
+                audio_len: g.window,
+            };
+        }
         if let (true, Some(g)) = (self.is_gpt(), &self.gpt) {
             return WindowSpec {
                 motion_len: g.window,
@@ -487,6 +522,12 @@ impl RunConfig {
 
     /// One line: architecture, size and run length.
     pub fn summary(&self) -> String {
+        if let (true, Some(g)) = (self.is_genre_clf(), &self.genre_clf) {
+            return format!(
+                "genre classifier width {} window {}; batch {} steps {} seed {}",
+                g.width, g.window, self.train.batch_size, self.train.steps, self.train.seed
+            );
+        }
         if let (true, Some(g)) = (self.is_gpt(), &self.gpt) {
             return format!(
                 "gpt hidden {} heads {} layers {} + {} window {} codes {} {:?}; batch {} steps {} seed {}",

@@ -56,6 +56,23 @@ pub fn inspect(path: &Path) -> Result<Inspection, ConfigError> {
             summary: inbetween_summary(&ib, params, Some(path)),
         });
     }
+    if config.arch == Arch::GenreClf {
+        let g = RunConfig::load(path, &[])?.genre_clf.unwrap_or_default();
+        let params =
+            crate::control::genre_clf::GenreClassifier::new(&g, &Device::flex()).num_params();
+        return Ok(Inspection {
+            path: path.to_path_buf(),
+            config,
+            params,
+            summary: format!(
+                "model: genre classifier (SPEC §13.10) from {}\n  pos72 [{}, 72] → Conv(72 → {w}) → 3 × Conv(k4, s2) → time mean → Linear({w} → 10)\n  closed form (§13.9): {}\n",
+                path.display(),
+                g.window,
+                group_digits(crate::control::genre_clf::genre_clf_params(&g)),
+                w = g.width
+            ),
+        });
+    }
     if config.arch == Arch::Gpt {
         let g = RunConfig::load(path, &[])?.gpt.unwrap_or_default();
         let model = crate::control::gpt::Gpt::new(&g, &Device::flex());
@@ -185,6 +202,7 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
         Arch::Inbetween => "in-betweener (configured by [inbetween])",
         Arch::Vqvae => "motion VQ-VAE (configured by [vq])",
         Arch::Gpt => "music-to-dance GPT (configured by [gpt])",
+        Arch::GenreClf => "genre classifier (configured by [genre_clf])",
     };
     let from = path
         .map(|p| format!(" from {}", p.display()))

@@ -45,6 +45,9 @@ impl DanceModel {
             Arch::Inbetween => panic!(
                 "DanceModel::new: an in-betweener is built by qean_models::inbetween::Inbetweener from its [inbetween] table"
             ),
+            Arch::GenreClf => panic!(
+                "DanceModel::new: the genre classifier is qean_models::control::genre_clf::GenreClassifier"
+            ),
             Arch::Gpt => panic!(
                 "DanceModel::new: a GPT is built by qean_models::control::gpt::Gpt from its [gpt] table"
             ),

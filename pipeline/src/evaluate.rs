@@ -543,6 +543,7 @@ fn label(config: &qean_config::RunConfig, step: u64) -> String {
         qean_config::model::Arch::Inbetween => format!("in-betweener step {step}"),
         qean_config::model::Arch::Vqvae => format!("VQ-VAE step {step}"),
         qean_config::model::Arch::Gpt => format!("VQ-VAE + GPT step {step}"),
+        qean_config::model::Arch::GenreClf => format!("genre classifier step {step}"),
         qean_config::model::Arch::Qean => format!(
             "QEAN ({:?} positions, {:?} attention) step {step}",
             m.position, m.attention

@@ -8,6 +8,7 @@ pub mod edit;
 pub mod error;
 pub mod evaluate;
 pub mod generate;
+pub mod genre_clf;
 pub mod gpt;
 pub mod inbetween;
 pub mod inbetweener;

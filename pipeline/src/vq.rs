@@ -75,12 +75,6 @@ impl TrainedVq {
     }
 }
 
-/// Whether `run` (its checkpoint `checkpoint`) is a VQ-VAE run; false when it cannot be read (the caller's
-/// own path then reports why).
-pub fn is_vq_run(run: &std::path::Path, checkpoint: Option<&str>) -> bool {
-    qean_train::checkpoint::resolve_in_run(run, checkpoint).is_ok_and(|c| c.config.is_vqvae())
-}
-
 /// Root-relative mean joint error (m) over the 23 non-root joints of the frames both have.
 pub fn root_relative_mpjpe(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
     let (mut s, mut n) = (0.0, 0usize);

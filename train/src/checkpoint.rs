@@ -124,6 +124,12 @@ impl Checkpoint {
                 "an in-betweener checkpoint, not FACT or QEAN: it does not generate dances from music",
             ));
         }
+        if self.config.is_genre_clf() {
+            return Err(Error::at(
+                &self.dir,
+                "a genre classifier checkpoint, not FACT or QEAN: `qean eval --run` scores it",
+            ));
+        }
         if self.config.is_gpt() {
             return Err(Error::at(
                 &self.dir,
@@ -160,6 +166,14 @@ impl Checkpoint {
             )?;
             return Ok(qean_models::params::named_parameters(&model));
         }
+        if self.config.is_genre_clf() {
+            let model = crate::family::load_checkpoint_model(
+                &crate::genre_clf::GenreClfFamily,
+                self,
+                device,
+            )?;
+            return Ok(qean_models::params::named_parameters(&model));
+        }
         if self.config.is_gpt() {
             let model = crate::family::load_checkpoint_model(
                 &crate::gpt::GptFamily::default(),
@@ -188,6 +202,7 @@ impl Checkpoint {
             (_, Some(i)) if self.config.is_inbetween() => toml::to_string(i),
             _ if self.config.is_vqvae() => toml::to_string(&self.config.vq),
             _ if self.config.is_gpt() => toml::to_string(&self.config.gpt),
+            _ if self.config.is_genre_clf() => toml::to_string(&self.config.genre_clf),
             _ => toml::to_string(&self.config.model),
         }
         .expect("configs serialise")
@@ -227,6 +242,17 @@ impl Checkpoint {
                         "the checkpoint is another in-betweener: {:?} (checkpoint) vs {:?} (variant, hidden, heads, ffn, layers, audio_layers, max_len, decoder, merge_axis)",
                         shape(a),
                         shape(b)
+                    ),
+                ));
+            }
+        }
+        if let (Some(a), Some(b)) = (&self.config.genre_clf, &config.genre_clf) {
+            if a.width != b.width {
+                return Err(Error::at(
+                    &self.dir,
+                    format!(
+                        "the checkpoint is another genre classifier: width {} (checkpoint) vs {}",
+                        a.width, b.width
                     ),
                 ));
             }

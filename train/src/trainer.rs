@@ -334,6 +334,9 @@ pub fn train(config: RunConfig, opts: &TrainOptions) -> Result<TrainOutcome> {
     if config.is_inbetween() {
         return train_family(&mut crate::inbetween::InbetweenFamily, config, opts);
     }
+    if config.is_genre_clf() {
+        return train_family(&mut crate::genre_clf::GenreClfFamily, config, opts);
+    }
     if config.is_gpt() {
         return train_family(&mut crate::gpt::GptFamily::default(), config, opts);
     }

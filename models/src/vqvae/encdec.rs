@@ -12,7 +12,7 @@ use qean_config::vq::{Dilations, VqConfig, VqDecoder};
 use qean_motion::pos72::POS72;
 
 /// PyTorch's default conv init, U(±1/√(C_in·k)) for weight and bias (SPEC §13.2.2: set explicitly).
-fn conv(
+pub(crate) fn conv(
     c_in: usize,
     c_out: usize,
     k: usize,

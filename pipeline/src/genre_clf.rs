@@ -1,0 +1,162 @@
+//! The genre classifier at work (SPEC §13.10): a sequence's verdict is the argmax of its window logits summed
+//! over windows every `eval_stride` frames; `qean eval --run CLFRUN` reports its accuracy on the ground-truth
+//! test + val sequences (and warns below 0.8), with the confusion matrix.
+
+use std::path::{Path, PathBuf};
+
+use burn::tensor::{Device, Tensor, TensorData};
+use qean_aistpp::dataset::Dataset;
+use qean_aistpp::names::GENRES;
+use qean_config::genre_clf::GenreClfConfig;
+use qean_models::control::genre_clf::GenreClassifier;
+use qean_motion::motion::Motion;
+use qean_motion::pos72::POS72;
+use qean_train::checkpoint::Checkpoint;
+use qean_train::genre_clf::{clf_of, genre_of, pos72_rows, GenreClfFamily};
+use serde::Serialize;
+
+use crate::evaluate::RunEvalRequest;
+use crate::{Error, Result};
+
+/// A trained classifier on the CPU.
+pub struct TrainedClf {
+    pub model: GenreClassifier,
+    pub config: GenreClfConfig,
+    pub checkpoint: Checkpoint,
+}
+
+impl TrainedClf {
+    pub fn load(run: &Path, checkpoint: Option<&str>) -> Result<TrainedClf> {
+        let checkpoint = qean_train::checkpoint::resolve_in_run(run, checkpoint)?;
+        if !checkpoint.config.is_genre_clf() {
+            return Err(Error::Invalid(format!(
+                "{}: not a genre classifier run (model.arch = {:?})",
+                checkpoint.dir.display(),
+                checkpoint.config.model.arch
+            )));
+        }
+        let model = qean_train::family::load_checkpoint_model(
+            &GenreClfFamily,
+            &checkpoint,
+            &Device::flex(),
+        )?;
+        Ok(TrainedClf {
+            config: clf_of(&checkpoint.config).clone(),
+            model,
+            checkpoint,
+        })
+    }
+
+    /// Summed window logits (10) of a motion: windows of `window` frames every `eval_stride` (one
+    /// window of the whole motion, cropped to a multiple of 8, when it is shorter).
+    pub fn logits(&self, motion: &Motion) -> Vec<f32> {
+        let rows = pos72_rows(motion);
+        let (w, stride) = (self.config.window, self.config.eval_stride);
+        let frames = motion.frames;
+        let windows: Vec<(usize, usize)> = if frames >= w {
+            (0..=(frames - w) / stride)
+                .map(|i| (i * stride, w))
+                .collect()
+        } else {
+            vec![(0, (frames / 8 * 8).max(8).min(frames))]
+        };
+        let device = Device::flex();
+        let mut sum = vec![0f32; GENRES.len()];
+        for (s, len) in windows {
+            let x = Tensor::<3>::from_data(
+                TensorData::new(rows[s * POS72..(s + len) * POS72].to_vec(), [1, len, POS72]),
+                &device,
+            );
+            let l: Vec<f32> = self
+                .model
+                .forward(x)
+                .into_data()
+                .convert::<f32>()
+                .try_to_vec()
+                .expect("f32");
+            for (a, b) in sum.iter_mut().zip(l) {
+                *a += b;
+            }
+        }
+        sum
+    }
+
+    /// The verdict: the genre index with the largest summed logit.
+    pub fn classify(&self, motion: &Motion) -> usize {
+        let l = self.logits(motion);
+        (0..l.len()).fold(0, |b, i| if l[i] > l[b] { i } else { b })
+    }
+}
+
+/// The classifier's report.
+#[derive(Debug, Clone, Serialize)]
+pub struct ClfEvaluation {
+    pub checkpoint: PathBuf,
+    pub step: u64,
+    pub sequences: usize,
+    pub accuracy: f64,
+    /// confusion[true][predicted].
+    pub confusion: Vec<Vec<usize>>,
+}
+
+/// Accuracy on the ground-truth test + val sequences; writes `R/eval/step-N/report.{md,json}`.
+pub fn evaluate_clf(req: &RunEvalRequest) -> Result<(ClfEvaluation, String)> {
+    let clf = TrainedClf::load(&req.run, req.checkpoint.as_deref())?;
+    let ds = Dataset::open(&req.data)?;
+    let names = crate::evaluate::protocol_sequences(&ds)?;
+    let mut confusion = vec![vec![0usize; GENRES.len()]; GENRES.len()];
+    let mut scored = 0;
+    for name in &names {
+        let Some(truth) = genre_of(name) else {
+            continue;
+        };
+        let motion = Motion::read_pkl(&ds.motion_path(name))?;
+        confusion[truth][clf.classify(&motion)] += 1;
+        scored += 1;
+    }
+    let correct: usize = (0..GENRES.len()).map(|g| confusion[g][g]).sum();
+    let accuracy = correct as f64 / scored.max(1) as f64;
+    if accuracy < 0.8 {
+        tracing::warn!(
+            "the genre classifier is right on {:.0} % of the ground-truth test + val sequences (below 80 %): \
+             its verdicts on generated dances say little",
+            100.0 * accuracy
+        );
+    }
+    let report = ClfEvaluation {
+        checkpoint: clf.checkpoint.dir.clone(),
+        step: clf.checkpoint.state.step,
+        sequences: scored,
+        accuracy,
+        confusion,
+    };
+    let md = markdown(&report);
+    let out_dir = req.run.join("eval").join(qean_eval::curves::eval_dir_name(
+        report.step,
+        req.tag.as_deref(),
+    ));
+    std::fs::create_dir_all(&out_dir).map_err(|e| qean_io::Error::io(&out_dir, e))?;
+    let json = serde_json::to_string_pretty(&report).expect("plain data") + "\n";
+    qean_io::fsutil::atomic_write(&out_dir.join("report.json"), json.as_bytes())?;
+    qean_io::fsutil::atomic_write(&out_dir.join("report.md"), md.as_bytes())?;
+    Ok((report, md))
+}
+
+/// The report as markdown: accuracy and the confusion matrix (rows: true genre).
+pub fn markdown(r: &ClfEvaluation) -> String {
+    let mut s = format!(
+        "# Genre classifier, step {}\n\nCheckpoint {}. Accuracy on {} ground-truth test + val sequences: **{:.3}** \
+         (chance 0.1).\n\n| true \\ predicted | {} |\n|---|{}\n",
+        r.step,
+        r.checkpoint.display(),
+        r.sequences,
+        r.accuracy,
+        GENRES.join(" | "),
+        "---|".repeat(GENRES.len())
+    );
+    for (g, row) in r.confusion.iter().enumerate() {
+        let cells: Vec<String> = row.iter().map(|c| c.to_string()).collect();
+        s += &format!("| {} | {} |\n", GENRES[g], cells.join(" | "));
+    }
+    s
+}

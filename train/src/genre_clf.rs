@@ -1,0 +1,163 @@
+//! The genre classifier as a trainer [`Family`] (SPEC §13.10): random pos72 windows of the training split,
+//! each labelled with its sequence's genre (the name's gXX code), cross-entropy.
+
+use burn::tensor::{Device, Int, Tensor, TensorData};
+use qean_aistpp::dataset::{Dataset, Split};
+use qean_aistpp::feature_cache;
+use qean_aistpp::names::GENRES;
+use qean_aistpp::windows::{Batch, SequenceSet, WindowSpec};
+use qean_config::genre_clf::GenreClfConfig;
+use qean_config::run::RunConfig;
+use qean_io::error::{Error, Result};
+use qean_models::control::genre_clf::GenreClassifier;
+use qean_models::tsmt::loss::masked_cross_entropy;
+use qean_motion::motion::{Layout, Motion};
+use qean_motion::pos72::{joints_to_pos72, Pos72Options, POS72};
+
+use crate::family::{Family, StepContext};
+
+/// The classifier family.
+#[derive(Debug, Default)]
+pub struct GenreClfFamily;
+
+/// The `[genre_clf]` table of a classifier run.
+pub fn clf_of(config: &RunConfig) -> &GenreClfConfig {
+    config
+        .genre_clf
+        .as_ref()
+        .expect("a genre classifier run config has a [genre_clf] table")
+}
+
+/// The genre index of an AIST++ name (`gBR_…` → 0), if it has one.
+pub fn genre_of(name: &str) -> Option<usize> {
+    let code = name.strip_prefix('g')?.get(..2)?;
+    GENRES.iter().position(|g| *g == code)
+}
+
+/// pos72 rows (f32, default options) of a motion.
+pub fn pos72_rows(motion: &Motion) -> Vec<f32> {
+    joints_to_pos72(
+        &motion.joints(qean_motion::FkRoot::Smpl),
+        &Pos72Options::default(),
+    )
+    .into_iter()
+    .map(|v| v as f32)
+    .collect()
+}
+
+/// Mean cross-entropy of logits [B, 10] against labels.
+pub fn clf_loss(logits: Tensor<2>, labels: &[usize], device: &Device) -> Tensor<1> {
+    let [b, k] = logits.dims();
+    let targets: Vec<i64> = labels.iter().map(|&l| l as i64).collect();
+    masked_cross_entropy(
+        logits.reshape([b, 1, 1, k]),
+        Tensor::<3, Int>::from_data(TensorData::new(targets, [b, 1, 1]), device),
+        &vec![1; b],
+    )
+}
+
+/// A batch as (windows [B, T, 72], labels).
+fn tensors(batch: &Batch, device: &Device) -> (Tensor<3>, Vec<usize>) {
+    let (b, t) = (batch.len(), batch.spec.motion_len);
+    let labels = batch
+        .names
+        .iter()
+        .map(|n| genre_of(n).unwrap_or(0))
+        .collect();
+    (
+        Tensor::from_data(TensorData::new(batch.motion.clone(), [b, t, POS72]), device),
+        labels,
+    )
+}
+
+impl Family for GenreClfFamily {
+    type Model = GenreClassifier;
+    type Inputs = (Tensor<3>, Vec<usize>);
+
+    fn init(&self, config: &RunConfig, device: &Device) -> GenreClassifier {
+        GenreClassifier::new(clf_of(config), device)
+    }
+
+    /// Windows of pos72 rows; sequences without a genre code are left out.
+    fn load_set(
+        &self,
+        dataset: &Dataset,
+        split: Split,
+        spec: WindowSpec,
+        _config: &RunConfig,
+    ) -> Result<SequenceSet> {
+        crate::data::ensure_features(dataset, &dataset.split(split))?;
+        let set = SequenceSet::load(dataset, split, Layout::L219, spec, |id| {
+            feature_cache::load(dataset, id)
+        })?;
+        let mut set = set.remap(
+            POS72,
+            0,
+            |seq| {
+                let mut rows = pos72_rows(&Motion::read_pkl(&dataset.motion_path(&seq.name))?);
+                rows.truncate(seq.motion_frames * POS72);
+                Ok(rows)
+            },
+            |_, _| Vec::new(),
+        )?;
+        set.sequences.retain(|s| genre_of(&s.name).is_some());
+        if set.sequences.is_empty() {
+            return Err(Error::at(
+                &dataset.root,
+                format!("no {} sequence carries a genre code (gBR_…)", split.name()),
+            ));
+        }
+        Ok(set)
+    }
+
+    fn inputs(
+        &self,
+        drawn: Batch,
+        _model: &GenreClassifier,
+        device: &Device,
+        _ctx: &StepContext,
+    ) -> Self::Inputs {
+        tensors(&drawn, device)
+    }
+
+    fn loss(
+        &self,
+        model: &GenreClassifier,
+        (x, labels): Self::Inputs,
+        _config: &RunConfig,
+    ) -> Tensor<1> {
+        let device = x.device();
+        clf_loss(model.forward(x), &labels, &device)
+    }
+
+    fn validation_loss(
+        &self,
+        model: &GenreClassifier,
+        set: &SequenceSet,
+        config: &RunConfig,
+        device: &Device,
+    ) -> f64 {
+        let all = set.first_windows();
+        let n = all.len();
+        let (mut sum, mut start) = (0.0, 0);
+        while start < n {
+            let end = (start + config.train.batch_size.max(1)).min(n);
+            let (x, labels) = tensors(&all.slice(start, end), device);
+            let loss = clf_loss(model.forward(x), &labels, device);
+            sum += loss.into_scalar::<f32>() as f64 * (end - start) as f64;
+            start = end;
+        }
+        sum / n.max(1) as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn genre_codes_in_order() {
+        assert_eq!(super::genre_of("gBR_sBM_cAll_d04_mBR0_ch01"), Some(0));
+        assert_eq!(super::genre_of("gJB_sFM_cAll_d09_mJB5_ch10"), Some(9));
+        assert_eq!(super::genre_of("gKR_x"), Some(7));
+        assert_eq!(super::genre_of("softcat"), None);
+    }
+}
