@@ -246,4 +246,37 @@ mod tests {
             8
         );
     }
+
+    /// SPEC §13.11 test 6: the commitment loss value, and the straight-through gradient is the identity
+    /// for the encoder output (the decoder's gradient reaches z unchanged).
+    #[test]
+    fn commitment_value_and_straight_through_gradient() {
+        use crate::testing::{f64_normal, to_vec};
+        let device = Device::flex().autodiff();
+        let c = VqConfig {
+            codes: 4,
+            code_dim: 3,
+            ..VqConfig::tiny()
+        };
+        let m = VqVae::new(&c, &device);
+        let z = f64_normal([1, 2, 3], &device).require_grad();
+        let e = f64_normal([1, 2, 3], &device);
+        let q = m.quantize_rows(z.clone(), e.clone(), vec![0, 1]);
+        let (zv, ev) = (to_vec(z.clone()), to_vec(e.clone()));
+        let want: f64 = zv
+            .iter()
+            .zip(&ev)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            / 6.0;
+        assert!((to_vec(q.loss.clone())[0] - want).abs() < 1e-12);
+        // The forward value is e; the gradient of Σ w·z_q with respect to z is w.
+        assert!(crate::testing::max_abs_diff(q.z_q.clone(), e) < 1e-12);
+        let w = f64_normal([1, 2, 3], &device);
+        let grads = (q.z_q * w.clone()).sum().backward();
+        let g = to_vec(z.grad(&grads).unwrap());
+        for (a, b) in g.iter().zip(to_vec(w)) {
+            assert!((a - b).abs() < 1e-12, "{a} vs {b}");
+        }
+    }
 }
