@@ -18,6 +18,24 @@ use qean_io::error::{Error, Result};
 use crate::checkpoint::Checkpoint;
 use qean_config::run::RunConfig;
 
+/// The mean of a batch loss over every sequence's first window, in batches of `batch_size` (weighted by
+/// batch size): the validation loss most families report.
+pub fn mean_over_first_windows(
+    set: &SequenceSet,
+    batch_size: usize,
+    mut loss: impl FnMut(Batch) -> Tensor<1>,
+) -> f64 {
+    let all = set.first_windows();
+    let n = all.len();
+    let (mut sum, mut start) = (0.0, 0);
+    while start < n {
+        let end = (start + batch_size.max(1)).min(n);
+        sum += loss(all.slice(start, end)).into_scalar::<f32>() as f64 * (end - start) as f64;
+        start = end;
+    }
+    sum / n.max(1) as f64
+}
+
 /// The file a family's extra checkpoint state is written to, beside the weights.
 pub const FAMILY_STATE_FILE: &str = "family.json";
 

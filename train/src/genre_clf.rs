@@ -137,17 +137,10 @@ impl Family for GenreClfFamily {
         config: &RunConfig,
         device: &Device,
     ) -> f64 {
-        let all = set.first_windows();
-        let n = all.len();
-        let (mut sum, mut start) = (0.0, 0);
-        while start < n {
-            let end = (start + config.train.batch_size.max(1)).min(n);
-            let (x, labels) = tensors(&all.slice(start, end), device);
-            let loss = clf_loss(model.forward(x), &labels, device);
-            sum += loss.into_scalar::<f32>() as f64 * (end - start) as f64;
-            start = end;
-        }
-        sum / n.max(1) as f64
+        crate::family::mean_over_first_windows(set, config.train.batch_size, |batch| {
+            let (x, labels) = tensors(&batch, device);
+            clf_loss(model.forward(x), &labels, device)
+        })
     }
 }
 

@@ -297,17 +297,10 @@ impl Family for GptFamily {
         device: &Device,
     ) -> f64 {
         let g = gpt_of(config);
-        let all = set.first_windows();
-        let n = all.len();
-        let (mut sum, mut start) = (0.0, 0);
-        while start < n {
-            let end = (start + config.train.batch_size.max(1)).min(n);
-            let x = tensors(&all.slice(start, end), g, 1.0, 0, device);
-            let loss = cross_entropy(model.music_logits(x.tokens, x.music), x.targets);
-            sum += loss.into_scalar::<f32>() as f64 * (end - start) as f64;
-            start = end;
-        }
-        sum / n.max(1) as f64
+        crate::family::mean_over_first_windows(set, config.train.batch_size, |batch| {
+            let x = tensors(&batch, g, 1.0, 0, device);
+            cross_entropy(model.music_logits(x.tokens, x.music), x.targets)
+        })
     }
 
     /// The frozen VQ-VAE's checkpoint and weights hash (a resume checks it).

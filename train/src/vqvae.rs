@@ -284,19 +284,16 @@ impl Family for VqFamily {
         device: &Device,
     ) -> f64 {
         let c = vq_of(config);
-        let all = set.first_windows();
-        let (n, t) = (all.len(), set.spec.motion_len);
-        let mut sum = 0.0;
-        let mut start = 0;
-        while start < n {
-            let end = (start + config.train.batch_size.max(1)).min(n);
-            let batch = all.slice(start, end);
+        let t = set.spec.motion_len;
+        crate::family::mean_over_first_windows(set, config.train.batch_size, |batch| {
+            let b = batch.len();
             let mut rows = batch.motion;
             normalise(&mut rows, c);
-            let x = Tensor::from_data(TensorData::new(rows, [end - start, t, POS72]), device);
-            sum += eval_loss(model, x, c).into_scalar::<f32>() as f64 * (end - start) as f64;
-            start = end;
-        }
-        sum / n.max(1) as f64
+            eval_loss(
+                model,
+                Tensor::from_data(TensorData::new(rows, [b, t, POS72]), device),
+                c,
+            )
+        })
     }
 }
