@@ -235,27 +235,15 @@ impl Checkpoint {
                     c.merge_axis,
                 )
             };
-            if shape(a) != shape(b) {
-                return Err(Error::at(
-                    &self.dir,
-                    format!(
-                        "the checkpoint is another in-betweener: {:?} (checkpoint) vs {:?} (variant, hidden, heads, ffn, layers, audio_layers, max_len, decoder, merge_axis)",
-                        shape(a),
-                        shape(b)
-                    ),
-                ));
-            }
+            self.same_shape(
+                "in-betweener",
+                shape(a),
+                shape(b),
+                "variant, hidden, heads, ffn, layers, audio_layers, max_len, decoder, merge_axis",
+            )?;
         }
         if let (Some(a), Some(b)) = (&self.config.genre_clf, &config.genre_clf) {
-            if a.width != b.width {
-                return Err(Error::at(
-                    &self.dir,
-                    format!(
-                        "the checkpoint is another genre classifier: width {} (checkpoint) vs {}",
-                        a.width, b.width
-                    ),
-                ));
-            }
+            self.same_shape("genre classifier", a.width, b.width, "width")?;
         }
         if let (Some(a), Some(b)) = (&self.config.gpt, &config.gpt) {
             let shape = |c: &qean_config::gpt::GptConfig| {
@@ -271,16 +259,12 @@ impl Checkpoint {
                     c.text_dim,
                 )
             };
-            if shape(a) != shape(b) {
-                return Err(Error::at(
-                    &self.dir,
-                    format!(
-                        "the checkpoint is another GPT: {:?} (checkpoint) vs {:?} (codes, rate, hidden, heads, base_layers, head_layers, window, m_layout, text_dim)",
-                        shape(a),
-                        shape(b)
-                    ),
-                ));
-            }
+            self.same_shape(
+                "GPT",
+                shape(a),
+                shape(b),
+                "codes, rate, hidden, heads, base_layers, head_layers, window, m_layout, text_dim",
+            )?;
         }
         if let (Some(a), Some(b)) = (&self.config.vq, &config.vq) {
             let shape = |c: &qean_config::vq::VqConfig| {
@@ -295,16 +279,12 @@ impl Checkpoint {
                     c.quantizer,
                 )
             };
-            if shape(a) != shape(b) {
-                return Err(Error::at(
-                    &self.dir,
-                    format!(
-                        "the checkpoint is another VQ-VAE: {:?} (checkpoint) vs {:?} (width, code_dim, codes, depth, down_t, enc_dilations, decoder, quantizer)",
-                        shape(a),
-                        shape(b)
-                    ),
-                ));
-            }
+            self.same_shape(
+                "VQ-VAE",
+                shape(a),
+                shape(b),
+                "width, code_dim, codes, depth, down_t, enc_dilations, decoder, quantizer",
+            )?;
         }
         let shape = |c: &qean_config::RunConfig| {
             c.tsmt.clone().map(|t| qean_config::tsmt::TsmtConfig {
@@ -340,6 +320,25 @@ impl Checkpoint {
         Err(Error::at(
             &self.dir,
             format!("the checkpoint is another TSMT model: {line}"),
+        ))
+    }
+
+    /// An error naming the family and the differing sizes when a section's shape changed.
+    fn same_shape<T: PartialEq + std::fmt::Debug>(
+        &self,
+        family: &str,
+        checkpoint: T,
+        config: T,
+        fields: &str,
+    ) -> Result<()> {
+        if checkpoint == config {
+            return Ok(());
+        }
+        Err(Error::at(
+            &self.dir,
+            format!(
+                "the checkpoint is another {family}: {checkpoint:?} (checkpoint) vs {config:?} ({fields})"
+            ),
         ))
     }
 
