@@ -458,6 +458,7 @@ fn dance(
             temperature: None,
             top_k: None,
             sample_seed: 0,
+            genre: None,
         },
         &dir,
         |done, total| {

@@ -125,6 +125,11 @@ pub struct Args {
     /// against another sequence's music). A trained model should beat both.
     #[arg(long, requires = "run")]
     pub baselines: bool,
+    /// Checkpoint mode, genre-control runs: run the genre control test (SPEC §13.10) with this trained
+    /// genre classifier run: every paired music × all 10 genres, the classifier's verdicts (accuracy,
+    /// confusion) and per-genre FID; writes R/eval/step-N/control.{json,md}.
+    #[arg(long, requires = "run")]
+    pub classifier: Option<PathBuf>,
     /// Directory of the music, <music ID>.wav (or .ogg/.mp3/.flac); beats tracked from the audio as
     /// --ba-music-beats says. Names without an AIST++ music ID need --pairing (or NAME.music).
     #[arg(long, conflicts_with = "beats")]
@@ -307,6 +312,9 @@ pub fn run_eval(args: &Args) -> anyhow::Result<String> {
             }
             if ck.as_ref().is_ok_and(|c| c.config.is_genre_clf()) {
                 return Ok(qean_pipeline::genre_clf::evaluate_clf(&req)?.1);
+            }
+            if let Some(clf) = &args.classifier {
+                return Ok(qean_pipeline::genre_control::control_test(&req, clf)?.1);
             }
             Ok(evaluate_run(&req)?.table)
         }

@@ -252,3 +252,222 @@ fn genre_classifier_trains_and_reports_accuracy() {
         .sum();
     assert_eq!(total, 4);
 }
+
+/// Genre control (SPEC §13.5, §13.10) through the binary: §13.9's counts, a tiny genre stage over a frozen
+/// tiny GPT with two optimisers, exact resume at an odd step inside the stage, the GPT bit-identical to its
+/// run while the genre module and D move, `qean sample --genre`, the control test, and bad inputs.
+#[test]
+fn genre_stage_trains_resumes_exactly_and_steers_sampling() {
+    let out = run_ok(
+        qean()
+            .arg("inspect")
+            .arg(configs().join("control/genre_tiny.toml")),
+    );
+    for count in ["88,448", "33,184", "95,562", "381,952"] {
+        assert!(out.contains(count), "{count}: {out}");
+    }
+    let out = run_ok(
+        qean()
+            .arg("inspect")
+            .arg(configs().join("control/genre_paper.toml")),
+    );
+    for count in ["12,599,808", "14,169,792", "23,271,178", "131,195,904"] {
+        assert!(out.contains(count), "{count}: {out}");
+    }
+
+    let dir = tempfile::tempdir().unwrap();
+    let data = dataset(dir.path());
+    let vq = dir.path().join("vq");
+    let mut sets: Vec<String> = VQ_SMALL.iter().map(|s| s.to_string()).collect();
+    sets.extend(["train.steps=2".into(), "train.batch_size=4".into()]);
+    train("control/vqvae_tiny.toml", &data, &vq, &sets, false);
+    let gpt = dir.path().join("gpt");
+    let mut sets: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
+    sets.extend([
+        string_set("gpt.vqvae_run", &vq),
+        "train.steps=2".into(),
+        "train.batch_size=4".into(),
+    ]);
+    train("control/gpt_tiny.toml", &data, &gpt, &sets, false);
+
+    let genre_sets = |steps: u64, run: &Path| -> Vec<String> {
+        let mut s: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
+        s.extend(
+            [
+                "genre.code_dim=8",
+                "genre.z_dim=4",
+                "genre.xattn_on=\"all\"",
+                "genre.disc_width=8",
+                "genre.disc_layers=1",
+                "genre.disc_ff=16",
+                "genre.disc_heads=2",
+                "train.batch_size=4",
+                "train.checkpoint_every=3",
+                "train.val_every=3",
+            ]
+            .iter()
+            .map(|s| s.to_string()),
+        );
+        s.push(string_set("genre.gpt_run", run));
+        s.push(format!("train.steps={steps}"));
+        s
+    };
+    let straight = dir.path().join("genre");
+    train(
+        "control/genre_tiny.toml",
+        &data,
+        &straight,
+        &genre_sets(5, &gpt),
+        false,
+    );
+    let split = dir.path().join("genre_split");
+    train(
+        "control/genre_tiny.toml",
+        &data,
+        &split,
+        &genre_sets(3, &gpt),
+        false,
+    );
+    train(
+        "control/genre_tiny.toml",
+        &data,
+        &split,
+        &genre_sets(5, &gpt),
+        true,
+    );
+    let last = |r: &Path| checkpoints(r).last().unwrap().clone();
+    assert_eq!(params_hash(&last(&straight)), params_hash(&last(&split)));
+    assert_eq!(losses(&straight), losses(&split));
+    for f in ["optimizer.bpk", "optimizer-1.bpk"] {
+        assert!(last(&straight).join(f).is_file(), "{f}");
+    }
+    // Only the genre module and D move; the GPT stays the GPT run's, bit for bit.
+    let cks = checkpoints(&straight);
+    let frozen: Vec<(String, Vec<f32>)> = named(&last(&gpt), "")
+        .into_iter()
+        .map(|p| (format!("gpt.{}", p.name), p.values))
+        .collect();
+    let inside: Vec<(String, Vec<f32>)> = named(&cks[1], "gpt.")
+        .into_iter()
+        .map(|p| (p.name, p.values))
+        .collect();
+    assert_eq!(frozen, inside);
+    assert_ne!(named(&cks[0], "genre."), named(&cks[1], "genre."));
+    assert_ne!(named(&cks[0], "disc."), named(&cks[1], "disc."));
+
+    // --genre: a dance per requested genre, deterministic; another genre, another dance.
+    let song = shared().join("music/Kevin_MacLeod_-_Vibe_Ace.ogg");
+    let sample = |genre: &str, out: &str| {
+        let out = dir.path().join(out);
+        run_ok(
+            qean()
+                .args(["sample", "--run"])
+                .arg(&straight)
+                .arg("--music")
+                .arg(&song)
+                .args(["--frames", "240", "--genre", genre, "--out"])
+                .arg(&out),
+        );
+        std::fs::read(out.join("Kevin_MacLeod_-_Vibe_Ace.joints.npy")).unwrap()
+    };
+    let br = sample("BR", "br");
+    assert_eq!(br, sample("br", "br2"));
+    assert_ne!(br, sample("JB", "jb"));
+
+    // Checkpoint mode (own genre per track) and the control test with a tiny classifier.
+    let table = run_ok(
+        qean()
+            .args(["eval", "--run"])
+            .arg(&straight)
+            .arg("--data")
+            .arg(&data)
+            .args(["--max-frames", "120"]),
+    );
+    assert!(
+        table.contains("VQ-VAE + GPT + genre control step 5"),
+        "{table}"
+    );
+    let clf = dir.path().join("clf");
+    let sets: Vec<String> = ["genre_clf.width=8", "genre_clf.window=64", "train.steps=2"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    train("control/genre_clf_tiny.toml", &data, &clf, &sets, false);
+    let md = run_ok(
+        qean()
+            .args(["eval", "--run"])
+            .arg(&straight)
+            .arg("--data")
+            .arg(&data)
+            .args(["--max-frames", "120", "--tag", "control", "--classifier"])
+            .arg(&clf),
+    );
+    assert!(md.contains("Accuracy w.r.t. the requested genre"), "{md}");
+    let report: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(straight.join("eval/step-5-control/control.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(report["samples"].as_u64(), Some(40));
+    let confusion = report["confusion"].as_array().unwrap();
+    for row in confusion {
+        let n: u64 = row
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c.as_u64().unwrap())
+            .sum();
+        assert_eq!(n, 4);
+    }
+
+    // Bad inputs: one line each, nothing written.
+    assert_clean_failure(
+        qean()
+            .args(["sample", "--run"])
+            .arg(&straight)
+            .arg("--music")
+            .arg(&song)
+            .args(["--genre", "XX", "--out"])
+            .arg(dir.path().join("xx")),
+        "unknown genre `XX`",
+    );
+    assert!(!dir.path().join("xx").exists());
+    assert_clean_failure(
+        qean()
+            .args(["sample", "--run"])
+            .arg(&gpt)
+            .arg("--music")
+            .arg(&song)
+            .args(["--genre", "BR", "--out"])
+            .arg(dir.path().join("plain")),
+        "--genre needs a genre-control run",
+    );
+    let bad = dir.path().join("bad");
+    for (run, wanted) in [
+        (dir.path().join("nope"), "genre.gpt_run"),
+        (vq.clone(), "not a music-to-dance GPT run"),
+    ] {
+        let mut c = qean();
+        c.args(["train", "--plain", "--config"])
+            .arg(configs().join("control/genre_tiny.toml"))
+            .arg("--data")
+            .arg(&data)
+            .arg("--run-dir")
+            .arg(&bad);
+        for s in genre_sets(2, &run) {
+            c.arg("--set").arg(s);
+        }
+        assert_clean_failure(&mut c, wanted);
+        assert!(!bad.exists());
+    }
+    let mut c = qean();
+    c.args(["train", "--plain", "--config"])
+        .arg(configs().join("control/genre_tiny.toml"))
+        .arg("--data")
+        .arg(&data)
+        .arg("--run-dir")
+        .arg(&bad)
+        .arg("--set")
+        .arg(string_set("genre.gpt_run", &gpt));
+    assert_clean_failure(&mut c, "the GPT run is");
+    assert!(!bad.exists());
+}

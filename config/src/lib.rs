@@ -5,6 +5,7 @@
 //! Plain Rust (no Burn), so configs can be read, checked and fuzzed without building a backend;
 //! qean-models and qean-train re-export these modules under their old paths.
 
+pub mod genre;
 pub mod genre_clf;
 pub mod gpt;
 pub mod inbetween;

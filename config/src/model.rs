@@ -36,6 +36,8 @@ pub enum Arch {
     Vqvae,
     /// The music-to-dance GPT over a frozen VQ-VAE's tokens (SPEC §13.3): the `[gpt]` table.
     Gpt,
+    /// The genre-control stage over a frozen GPT (SPEC §13.5): the `[gpt]` and `[genre]` tables.
+    GptGenre,
     /// The genre classifier of the control evaluation (SPEC §13.10): the `[genre_clf]` table.
     GenreClf,
 }

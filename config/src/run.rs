@@ -13,6 +13,7 @@ use qean_aistpp::windows::WindowSpec;
 use qean_motion::motion::Layout;
 use serde::{Deserialize, Serialize};
 
+use crate::genre::GenreConfig;
 use crate::genre_clf::GenreClfConfig;
 use crate::gpt::GptConfig;
 use crate::inbetween::InbetweenConfig;
@@ -151,6 +152,9 @@ pub struct RunConfig {
     /// The genre classifier (`model.arch = "genre_clf"` only; written only then).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub genre_clf: Option<GenreClfConfig>,
+    /// The genre-control stage (`model.arch = "gpt_genre"` only; written only then).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub genre: Option<GenreConfig>,
 }
 
 /// What one file of an `extends` chain may hold (every table optional and partial).
@@ -170,6 +174,7 @@ struct RunFile {
     vq: Option<VqConfig>,
     gpt: Option<GptConfig>,
     genre_clf: Option<GenreClfConfig>,
+    genre: Option<GenreConfig>,
 }
 
 fn check_file(path: &Path, text: &str) -> Result<(), ConfigError> {
@@ -250,6 +255,29 @@ pub fn apply_override(table: &mut toml::Table, spec: &str, path: &Path) -> Resul
     Ok(())
 }
 
+/// A family's table must be there for its architecture and only then: `[name]` for `model.arch = arch`.
+fn check_section<T>(
+    table: Option<&T>,
+    wanted: bool,
+    name: &str,
+    arch: &str,
+    actual: crate::model::Arch,
+    validate: impl Fn(&T) -> Result<(), String>,
+) -> Result<(), String> {
+    let article = if name.starts_with('i') { "an" } else { "a" };
+    match (table, wanted) {
+        (Some(t), true) => validate(t),
+        (None, true) => Err(format!(
+            "model.arch = \"{arch}\" needs {article} [{name}] table"
+        )),
+        (Some(_), false) => Err(format!(
+            "{article} [{name}] table is for model.arch = \"{arch}\", not {actual:?}"
+        )
+        .to_lowercase()),
+        (None, false) => Ok(()),
+    }
+}
+
 impl RunConfig {
     /// Loads a run config (following `extends`), applies `--set` overrides, checks every value.
     pub fn load(path: &Path, overrides: &[String]) -> Result<RunConfig, ConfigError> {
@@ -280,6 +308,9 @@ impl RunConfig {
         if config.is_gpt() && config.gpt.is_none() {
             config.gpt = Some(GptConfig::default());
         }
+        if config.is_gpt_genre() && config.genre.is_none() {
+            config.genre = Some(GenreConfig::default());
+        }
         config
             .validate()
             .map_err(|m| ConfigError::new(path, None, m))?;
@@ -289,70 +320,50 @@ impl RunConfig {
     /// Checks values that the types alone do not.
     pub fn validate(&self) -> Result<(), String> {
         self.model.validate().map_err(|m| format!("[model]: {m}"))?;
-        match (&self.tsmt, self.is_tsmt()) {
-            (Some(t), true) => t.validate()?,
-            (None, true) => return Err("model.arch = \"tsmt\" needs a [tsmt] table".into()),
-            (Some(_), false) => {
-                return Err(format!(
-                    "a [tsmt] table is for model.arch = \"tsmt\", not {:?}",
-                    self.model.arch
-                )
-                .to_lowercase())
-            }
-            (None, false) => {}
-        }
-        match (&self.inbetween, self.is_inbetween()) {
-            (Some(i), true) => i.validate()?,
-            (None, true) => {
-                return Err("model.arch = \"inbetween\" needs an [inbetween] table".into())
-            }
-            (Some(_), false) => {
-                return Err(format!(
-                    "an [inbetween] table is for model.arch = \"inbetween\", not {:?}",
-                    self.model.arch
-                )
-                .to_lowercase())
-            }
-            (None, false) => {}
-        }
-        match (&self.genre_clf, self.is_genre_clf()) {
-            (Some(g), true) => g.validate()?,
-            (None, true) => {
-                return Err("model.arch = \"genre_clf\" needs a [genre_clf] table".into())
-            }
-            (Some(_), false) => {
-                return Err(format!(
-                    "a [genre_clf] table is for model.arch = \"genre_clf\", not {:?}",
-                    self.model.arch
-                )
-                .to_lowercase())
-            }
-            (None, false) => {}
-        }
-        match (&self.gpt, self.is_gpt()) {
-            (Some(g), true) => g.validate()?,
-            (None, true) => return Err("model.arch = \"gpt\" needs a [gpt] table".into()),
-            (Some(_), false) => {
-                return Err(format!(
-                    "a [gpt] table is for model.arch = \"gpt\", not {:?}",
-                    self.model.arch
-                )
-                .to_lowercase())
-            }
-            (None, false) => {}
-        }
-        match (&self.vq, self.is_vqvae()) {
-            (Some(v), true) => v.validate()?,
-            (None, true) => return Err("model.arch = \"vqvae\" needs a [vq] table".into()),
-            (Some(_), false) => {
-                return Err(format!(
-                    "a [vq] table is for model.arch = \"vqvae\", not {:?}",
-                    self.model.arch
-                )
-                .to_lowercase())
-            }
-            (None, false) => {}
-        }
+        let arch = self.model.arch;
+        check_section(
+            self.tsmt.as_ref(),
+            self.is_tsmt(),
+            "tsmt",
+            "tsmt",
+            arch,
+            |t| t.validate(),
+        )?;
+        check_section(
+            self.inbetween.as_ref(),
+            self.is_inbetween(),
+            "inbetween",
+            "inbetween",
+            arch,
+            |t| t.validate(),
+        )?;
+        check_section(
+            self.genre_clf.as_ref(),
+            self.is_genre_clf(),
+            "genre_clf",
+            "genre_clf",
+            arch,
+            |t| t.validate(),
+        )?;
+        check_section(self.gpt.as_ref(), self.is_gpt(), "gpt", "gpt", arch, |t| {
+            t.validate()
+        })?;
+        check_section(
+            self.genre.as_ref(),
+            self.is_gpt_genre(),
+            "genre",
+            "gpt_genre",
+            arch,
+            |t| t.validate(),
+        )?;
+        check_section(
+            self.vq.as_ref(),
+            self.is_vqvae(),
+            "vq",
+            "vqvae",
+            arch,
+            |t| t.validate(),
+        )?;
         let t = &self.train;
         if t.steps == 0 {
             return Err("train.steps must be at least 1".into());
@@ -413,9 +424,18 @@ impl RunConfig {
         self.model.arch == crate::model::Arch::GenreClf
     }
 
-    /// Whether the run is the music-to-dance GPT (`model.arch = "gpt"`).
+    /// Whether the run is a music-to-dance GPT: the plain one (`model.arch = "gpt"`) or one with a
+    /// genre module (`"gpt_genre"`).
     pub fn is_gpt(&self) -> bool {
-        self.model.arch == crate::model::Arch::Gpt
+        matches!(
+            self.model.arch,
+            crate::model::Arch::Gpt | crate::model::Arch::GptGenre
+        )
+    }
+
+    /// Whether the run is the genre-control stage over a frozen GPT (`model.arch = "gpt_genre"`).
+    pub fn is_gpt_genre(&self) -> bool {
+        self.model.arch == crate::model::Arch::GptGenre
     }
 
     /// Whether the run is the motion VQ-VAE (`model.arch = "vqvae"`).
@@ -527,6 +547,14 @@ impl RunConfig {
                 "genre classifier width {} window {}; batch {} steps {} seed {}",
                 g.width, g.window, self.train.batch_size, self.train.steps, self.train.seed
             );
+        }
+        if let (true, Some(g), Some(c)) = (self.is_gpt_genre(), &self.gpt, &self.genre) {
+            return format!(
+                "genre control z {} tokens {} disc {}×{} ff {} {:?} {:?} over gpt hidden {} window {}; batch {} steps {} seed {}",
+                c.z_dim, c.tokens, c.disc_width, c.disc_layers, c.disc_ff, c.gan_loss, c.relax,
+                g.hidden, g.window, self.train.batch_size, self.train.steps, self.train.seed
+            )
+            .to_lowercase();
         }
         if let (true, Some(g)) = (self.is_gpt(), &self.gpt) {
             return format!(

@@ -73,6 +73,23 @@ pub fn inspect(path: &Path) -> Result<Inspection, ConfigError> {
             ),
         });
     }
+    if config.arch == Arch::GptGenre {
+        let run = RunConfig::load(path, &[])?;
+        let (g, c) = (run.gpt.unwrap_or_default(), run.genre.unwrap_or_default());
+        let model = crate::control::genre::GenreGpt::new(&g, &c, c.code_dim, &Device::flex());
+        let params = model.genre.num_params() + model.disc.num_params();
+        let summary = format!(
+            "{}{}",
+            gpt_summary(&g, &model.gpt, Some(path)),
+            genre_summary(&g, &c, &model)
+        );
+        return Ok(Inspection {
+            path: path.to_path_buf(),
+            config,
+            params,
+            summary,
+        });
+    }
     if config.arch == Arch::Gpt {
         let g = RunConfig::load(path, &[])?.gpt.unwrap_or_default();
         let model = crate::control::gpt::Gpt::new(&g, &Device::flex());
@@ -202,6 +219,7 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
         Arch::Inbetween => "in-betweener (configured by [inbetween])",
         Arch::Vqvae => "motion VQ-VAE (configured by [vq])",
         Arch::Gpt => "music-to-dance GPT (configured by [gpt])",
+        Arch::GptGenre => "genre control over a GPT (configured by [gpt] and [genre])",
         Arch::GenreClf => "genre classifier (configured by [genre_clf])",
     };
     let from = path
@@ -340,6 +358,53 @@ pub fn gpt_summary(
         group_digits(h),
         group_digits(t),
         group_digits(m + h + t)
+    );
+    s
+}
+
+/// The genre-control lines of `qean inspect` (SPEC §13.5; counts of §13.9): what the genre stage trains.
+pub fn genre_summary(
+    g: &qean_config::gpt::GptConfig,
+    c: &qean_config::genre::GenreConfig,
+    model: &crate::control::genre::GenreGpt,
+) -> String {
+    let (gen, xattn, disc) = crate::control::genre::genre_params(g, c, c.code_dim);
+    let actual_xattn: usize = model.genre.xattn.iter().map(|x| x.num_params()).sum();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "  genre module (trained; the GPT above is frozen): GEN(z {} → {} × {}) {} + cross-attention (eq. 3, {} layers, {:?} positions) {} = {}",
+        c.z_dim,
+        c.tokens,
+        g.hidden,
+        group_digits(model.genre.gen.num_params()),
+        g.base_layers,
+        c.xattn_on,
+        group_digits(actual_xattn),
+        group_digits(model.genre.num_params())
+    );
+    let _ = writeln!(
+        s,
+        "  discriminator: latents {} + music {} → {}, {} layers (FF {}, {} heads), 10 genre heads: {}",
+        c.code_dim,
+        crate::control::gpt::music_token_dim(g),
+        c.disc_width,
+        c.disc_layers,
+        c.disc_ff,
+        c.disc_heads,
+        group_digits(model.disc.num_params())
+    );
+    let _ = writeln!(
+        s,
+        "  closed form (§13.9): GEN {} + cross-attention {} ; D {}; GPT run: {}",
+        group_digits(gen),
+        group_digits(xattn),
+        group_digits(disc),
+        c.gpt_run
+            .as_ref()
+            .map_or("not set (genre.gpt_run)".into(), |p| p
+                .display()
+                .to_string())
     );
     s
 }

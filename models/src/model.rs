@@ -48,6 +48,9 @@ impl DanceModel {
             Arch::GenreClf => panic!(
                 "DanceModel::new: the genre classifier is qean_models::control::genre_clf::GenreClassifier"
             ),
+            Arch::GptGenre => panic!(
+                "DanceModel::new: a genre-control run is qean_models::control::genre::GenreGpt"
+            ),
             Arch::Gpt => panic!(
                 "DanceModel::new: a GPT is built by qean_models::control::gpt::Gpt from its [gpt] table"
             ),

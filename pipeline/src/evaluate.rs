@@ -127,7 +127,18 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
     let pairs = pairings(&names, req.protocol);
     let (requests, starts) = sample_requests(&ds, &pairs, config, req.seed_start)?;
     let opts = sample_options(req, config)?;
-    let dances = sample_dances(req, &ck, &requests, &opts, req.sampling.sample_seed)?;
+    // A genre-control run dances each track in the track's own genre (SPEC §13.10).
+    let genres: Vec<Option<usize>> = pairs
+        .iter()
+        .map(|(_, music, _)| crate::genre_control::music_genre(music))
+        .collect();
+    let dances = sample_dances(
+        req,
+        &ck,
+        (&requests, &genres),
+        &opts,
+        req.sampling.sample_seed,
+    )?;
     let (generated, pairings_out) = write_generated(
         &out_dir,
         &pairs,
@@ -255,7 +266,7 @@ pub(crate) fn protocol_sequences(ds: &Dataset) -> Result<Vec<String>> {
 
 /// One sampler request per pairing: the seed is the motion's frames from its start (see [`SeedStart`]),
 /// the music's features from the same frame on. Returns the requests and the starts.
-fn sample_requests(
+pub(crate) fn sample_requests(
     ds: &Dataset,
     pairs: &[(String, String, String)],
     config: &qean_config::RunConfig,
@@ -321,7 +332,7 @@ fn sample_options(req: &RunEvalRequest, config: &qean_config::RunConfig) -> Resu
 fn sample_dances(
     req: &RunEvalRequest,
     ck: &qean_train::Checkpoint,
-    requests: &[SampleRequest],
+    (requests, genres): (&[SampleRequest], &[Option<usize>]),
     opts: &SampleOptions,
     draw_seed: u64,
 ) -> Result<Vec<Vec<f32>>> {
@@ -338,7 +349,7 @@ fn sample_dances(
     let dances = if ck.config.is_tsmt() {
         sample_tsmt(req, ck, requests, opts, draw_seed, backend, &mut progress)?
     } else if ck.config.is_gpt() {
-        sample_gpt(req, ck, requests, opts, draw_seed, &mut progress)?
+        sample_gpt(req, ck, (requests, genres), opts, draw_seed, &mut progress)?
     } else {
         let device = qean_models::backend::device(backend)?;
         let model = ck.load_model(&device)?;
@@ -385,7 +396,7 @@ fn sample_tsmt(
 fn sample_gpt(
     req: &RunEvalRequest,
     ck: &qean_train::Checkpoint,
-    requests: &[SampleRequest],
+    (requests, genres): (&[SampleRequest], &[Option<usize>]),
     opts: &SampleOptions,
     draw_seed: u64,
     progress: &mut dyn FnMut(usize, usize),
@@ -402,8 +413,25 @@ fn sample_gpt(
     for (i, r) in requests.iter().enumerate() {
         let seed = Motion::from_layout(&r.seed, opts.layout).map_err(Error::Invalid)?;
         let music = (r.audio.as_slice(), r.audio.len() / dim);
+        let choice = genres
+            .get(i)
+            .copied()
+            .flatten()
+            .filter(|_| run.genre.is_some())
+            .map(|genre| crate::gpt::GenreChoice {
+                genre,
+                z_seed: i as u64,
+            });
         let motion = run
-            .dance(g, &seed, music, req.max_frames, &picking, &mut |_, _| {})?
+            .dance(
+                g,
+                &seed,
+                music,
+                req.max_frames,
+                &picking,
+                choice,
+                &mut |_, _| {},
+            )?
             .ok_or_else(|| {
                 Error::Invalid(format!(
                     "request {i}: the music is shorter than the seed and one token"
@@ -427,7 +455,7 @@ fn more_rollouts(
     let count = req.sampling.music_rollouts.unwrap_or(5);
     let mut sets = Vec::new();
     for k in 1..count as u64 {
-        let dances = sample_dances(req, ck, requests, opts, req.sampling.sample_seed + k)?;
+        let dances = sample_dances(req, ck, (requests, &[]), opts, req.sampling.sample_seed + k)?;
         let set = dances
             .iter()
             .zip(main)
@@ -543,6 +571,7 @@ fn label(config: &qean_config::RunConfig, step: u64) -> String {
         qean_config::model::Arch::Inbetween => format!("in-betweener step {step}"),
         qean_config::model::Arch::Vqvae => format!("VQ-VAE step {step}"),
         qean_config::model::Arch::Gpt => format!("VQ-VAE + GPT step {step}"),
+        qean_config::model::Arch::GptGenre => format!("VQ-VAE + GPT + genre control step {step}"),
         qean_config::model::Arch::GenreClf => format!("genre classifier step {step}"),
         qean_config::model::Arch::Qean => format!(
             "QEAN ({:?} positions, {:?} attention) step {step}",

@@ -119,6 +119,8 @@ pub struct GenerateOptions {
     pub temperature: Option<f64>,
     pub top_k: Option<usize>,
     pub sample_seed: u64,
+    /// Genre control (genre-control GPT runs): the genre and the seed of z.
+    pub genre: Option<crate::gpt::GenreChoice>,
 }
 
 /// What was written for one song.

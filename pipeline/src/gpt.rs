@@ -5,8 +5,10 @@
 use std::path::Path;
 
 use burn::tensor::{Device, Int, Tensor, TensorData};
+use qean_aistpp::names::GENRES;
 use qean_config::gpt::GptConfig;
 use qean_io::error::{Error, Result};
+use qean_models::control::genre::GenreModule;
 use qean_models::control::gpt::{music_token_dim, Gpt};
 use qean_models::vqvae::VqVae;
 use qean_motion::fk::FkRoot;
@@ -15,6 +17,7 @@ use qean_motion::motion::{Layout, Motion};
 use qean_motion::pos72::pos72_to_joints;
 use qean_render::export::{export_dance, ExportOptions};
 use qean_train::checkpoint::Checkpoint;
+use qean_train::genre::{genre_of_config, normal_noise, GenreFamily};
 use qean_train::gpt::{gpt_of, music_tokens, FrozenVq, GptFamily};
 use qean_train::vqvae::{denormalise, pos72_options, vq_of};
 use rand::{Rng, SeedableRng};
@@ -71,9 +74,42 @@ pub fn pick(logits: &[f32], codes: usize, p: &Picking, rng: &mut impl Rng) -> us
     best.0
 }
 
-/// Tokens n_total = min(seed + wanted, music tokens) from `seed` tokens and music tokens (n_total × 280).
+/// A requested genre (SPEC §13.8 "optional controls"): the genre index and the seed of the noise z.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GenreChoice {
+    pub genre: usize,
+    pub z_seed: u64,
+}
+
+impl GenreChoice {
+    /// A genre from its AIST++ code (BR, PO, LO, MH, LH, HO, WA, KR, JS, JB).
+    pub fn parse(code: &str, z_seed: u64) -> Result<GenreChoice> {
+        let genre = GENRES
+            .iter()
+            .position(|g| g.eq_ignore_ascii_case(code))
+            .ok_or_else(|| {
+                Error::msg(format!(
+                    "unknown genre `{code}`: expected one of {}",
+                    GENRES.join(", ")
+                ))
+            })?;
+        Ok(GenreChoice { genre, z_seed })
+    }
+
+    /// The genre tokens G [1, n_g, D] of this choice.
+    pub fn tokens(&self, module: &GenreModule, z_dim: usize) -> Tensor<3> {
+        let z = normal_noise(self.z_seed, z_dim);
+        let z = Tensor::from_data(TensorData::new(z, [1, z_dim]), &Device::flex());
+        module.gen.forward(z, &[self.genre])
+    }
+}
+
+/// Tokens n_total = min(seed + wanted, music tokens) from `seed` tokens and music tokens (n_total × 280);
+/// with `genre`, the genre module steers every M-Base block with the tokens G.
+#[allow(clippy::too_many_arguments)]
 pub fn sample_tokens(
     model: &Gpt,
+    genre: Option<(&GenreModule, Tensor<3>)>,
     g: &GptConfig,
     seed: &[usize],
     music: &[f32],
@@ -103,10 +139,12 @@ pub fn sample_tokens(
                 music[j * w..(j + 1) * w].iter().copied()
             })
             .collect();
-        let logits = model.music_logits(
-            Tensor::<2, Int>::from_data(TensorData::new(inputs, [1, len]), &device),
-            Tensor::from_data(TensorData::new(rows, [1, len, w]), &device),
-        );
+        let inputs = Tensor::<2, Int>::from_data(TensorData::new(inputs, [1, len]), &device);
+        let rows = Tensor::from_data(TensorData::new(rows, [1, len, w]), &device);
+        let logits = match &genre {
+            Some((module, tokens)) => model.genre_logits(inputs, rows, module, tokens.clone()),
+            None => model.music_logits(inputs, rows),
+        };
         let last: Vec<f32> = logits
             .narrow(1, len - 1, 1)
             .into_data()
@@ -153,22 +191,53 @@ pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize]) -> Motion {
     Motion::new(poses, trans, 1.0).expect("whole frames")
 }
 
-/// A GPT run with its frozen VQ-VAE, loaded once.
+/// A GPT run with its frozen VQ-VAE, loaded once; a genre-control run also brings its genre module (its
+/// discriminator is not needed to sample).
 pub struct GptRun {
     pub model: Gpt,
+    pub genre: Option<(GenreModule, usize)>,
     pub vq: FrozenVq,
 }
 
 impl GptRun {
     pub fn load(ck: &Checkpoint) -> Result<GptRun> {
         let vq = FrozenVq::load(gpt_of(&ck.config))?;
-        let model =
-            qean_train::family::load_checkpoint_model(&GptFamily::default(), ck, &Device::flex())?;
-        Ok(GptRun { model, vq })
+        let device = Device::flex();
+        if ck.config.is_gpt_genre() {
+            let m =
+                qean_train::family::load_checkpoint_model(&GenreFamily::default(), ck, &device)?;
+            let z_dim = genre_of_config(&ck.config).z_dim;
+            return Ok(GptRun {
+                model: m.gpt,
+                genre: Some((m.genre, z_dim)),
+                vq,
+            });
+        }
+        let model = qean_train::family::load_checkpoint_model(&GptFamily::default(), ck, &device)?;
+        Ok(GptRun {
+            model,
+            genre: None,
+            vq,
+        })
+    }
+
+    /// The genre tokens of `choice` (an error for a run without a genre module).
+    fn genre_tokens(
+        &self,
+        choice: Option<GenreChoice>,
+    ) -> Result<Option<(&GenreModule, Tensor<3>)>> {
+        match (choice, &self.genre) {
+            (None, _) => Ok(None),
+            (Some(c), Some((module, z_dim))) => Ok(Some((module, c.tokens(module, *z_dim)))),
+            (Some(_), None) => Err(Error::msg(
+                "--genre needs a genre-control run (model.arch = \"gpt_genre\", configs/control/genre_tiny.toml); this GPT has no genre module",
+            )),
+        }
     }
 
     /// One dance: the seed then up to `frames` generated frames for music features (frames × 35); `None`
     /// when the music is shorter than the seed and one token.
+    #[allow(clippy::too_many_arguments)]
     pub fn dance(
         &self,
         g: &GptConfig,
@@ -176,8 +245,10 @@ impl GptRun {
         music: (&[f32], usize),
         frames: usize,
         picking: &Picking,
+        genre: Option<GenreChoice>,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<Option<Motion>> {
+        let genre = self.genre_tokens(genre)?;
         let seed_tokens = self.vq.tokens(seed, seed.frames / g.rate * g.rate)?;
         let available = music.1 / g.rate;
         let n_total = (seed_tokens.len() + frames.div_ceil(g.rate)).min(available);
@@ -186,6 +257,7 @@ impl GptRun {
         }
         let tokens = sample_tokens(
             &self.model,
+            genre,
             g,
             &seed_tokens,
             &music_tokens(music.0, n_total, g.rate),
@@ -219,7 +291,9 @@ pub fn generate(
     let mut written = Vec::new();
     for song in songs {
         let music = (song.features.data.as_slice(), song.features.frames);
-        let Some(motion) = run.dance(g, seed, music, opts.frames, &picking, progress)? else {
+        let Some(motion) =
+            run.dance(g, seed, music, opts.frames, &picking, opts.genre, progress)?
+        else {
             return Err(Error::at(
                 &song.path,
                 format!(

@@ -9,6 +9,7 @@ pub mod error;
 pub mod evaluate;
 pub mod generate;
 pub mod genre_clf;
+pub mod genre_control;
 pub mod gpt;
 pub mod inbetween;
 pub mod inbetweener;

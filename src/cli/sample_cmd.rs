@@ -100,6 +100,14 @@ pub struct SampleArgs {
     /// TSMT and GPT: seed of the draws.
     #[arg(long, default_value_t = 0)]
     pub sample_seed: u64,
+    /// Genre-control runs (model.arch = "gpt_genre"): dance in this AIST++ genre: BR (break), PO (pop),
+    /// LO (lock), MH (middle hip-hop), LH (LA hip-hop), HO (house), WA (waack), KR (krump), JS (street
+    /// jazz), JB (ballet jazz).
+    #[arg(long)]
+    pub genre: Option<String>,
+    /// With --genre: the seed of the genre noise z (another seed, another dance of the same genre).
+    #[arg(long, default_value_t = 0, requires = "genre")]
+    pub z_seed: u64,
 }
 
 pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
@@ -122,6 +130,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
     if let Some(t) = a.temperature.filter(|t| !(t.is_finite() && *t >= 0.0)) {
         bail!("--temperature must be ≥ 0, got {t}");
     }
+    let genre = genre_choice(&a, &ck)?;
     let audio_len = ck.config.min_music_frames();
     let mut songs = Vec::new();
     for path in &a.music {
@@ -151,6 +160,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         temperature: a.temperature,
         top_k: a.top_k,
         sample_seed: a.sample_seed,
+        genre,
     };
     let pb = qean_train::progress::bar(a.frames as u64, "", "frames");
     let written = generate::generate(&ck, &songs, &seed, &opts, &a.out, |done, total| {
@@ -215,6 +225,26 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         }
     }
     Ok(0)
+}
+
+/// `--genre CODE --z-seed S`, for a genre-control run only.
+fn genre_choice(
+    a: &SampleArgs,
+    ck: &checkpoint::Checkpoint,
+) -> anyhow::Result<Option<qean_pipeline::gpt::GenreChoice>> {
+    let Some(code) = &a.genre else {
+        return Ok(None);
+    };
+    if !ck.config.is_gpt_genre() {
+        bail!(
+            "--genre needs a genre-control run (model.arch = \"gpt_genre\", trained with configs/control/genre_tiny.toml); {} is a {:?} run",
+            ck.dir.display(),
+            ck.config.model.arch
+        );
+    }
+    Ok(Some(qean_pipeline::gpt::GenreChoice::parse(
+        code, a.z_seed,
+    )?))
 }
 
 /// The training dataset's motion energy (cached in the run directory), if the dataset is here.

@@ -174,6 +174,14 @@ impl Checkpoint {
             )?;
             return Ok(qean_models::params::named_parameters(&model));
         }
+        if self.config.is_gpt_genre() {
+            let model = crate::family::load_checkpoint_model(
+                &crate::genre::GenreFamily::default(),
+                self,
+                device,
+            )?;
+            return Ok(qean_models::params::named_parameters(&model));
+        }
         if self.config.is_gpt() {
             let model = crate::family::load_checkpoint_model(
                 &crate::gpt::GptFamily::default(),
@@ -197,6 +205,15 @@ impl Checkpoint {
 
     /// The architecture tables as TOML (`[model]`, or `[tsmt]` for TSMT runs).
     pub fn architecture_toml(&self) -> String {
+        if self.config.is_gpt_genre() {
+            let part =
+                |t: std::result::Result<String, toml::ser::Error>| t.expect("configs serialise");
+            return format!(
+                "[gpt]\n{}\n[genre]\n{}",
+                part(toml::to_string(&self.config.gpt)),
+                part(toml::to_string(&self.config.genre))
+            );
+        }
         match (&self.config.tsmt, &self.config.inbetween) {
             (Some(t), _) if self.config.is_tsmt() => toml::to_string(t),
             (_, Some(i)) if self.config.is_inbetween() => toml::to_string(i),
@@ -245,47 +262,7 @@ impl Checkpoint {
         if let (Some(a), Some(b)) = (&self.config.genre_clf, &config.genre_clf) {
             self.same_shape("genre classifier", a.width, b.width, "width")?;
         }
-        if let (Some(a), Some(b)) = (&self.config.gpt, &config.gpt) {
-            let shape = |c: &qean_config::gpt::GptConfig| {
-                (
-                    c.codes,
-                    c.rate,
-                    c.hidden,
-                    c.heads,
-                    c.base_layers,
-                    c.head_layers,
-                    c.window,
-                    c.m_layout,
-                    c.text_dim,
-                )
-            };
-            self.same_shape(
-                "GPT",
-                shape(a),
-                shape(b),
-                "codes, rate, hidden, heads, base_layers, head_layers, window, m_layout, text_dim",
-            )?;
-        }
-        if let (Some(a), Some(b)) = (&self.config.vq, &config.vq) {
-            let shape = |c: &qean_config::vq::VqConfig| {
-                (
-                    c.width,
-                    c.code_dim,
-                    c.codes,
-                    c.depth,
-                    c.down_t,
-                    c.enc_dilations,
-                    c.decoder,
-                    c.quantizer,
-                )
-            };
-            self.same_shape(
-                "VQ-VAE",
-                shape(a),
-                shape(b),
-                "width, code_dim, codes, depth, down_t, enc_dilations, decoder, quantizer",
-            )?;
-        }
+        self.check_control_shapes(config)?;
         let shape = |c: &qean_config::RunConfig| {
             c.tsmt.clone().map(|t| qean_config::tsmt::TsmtConfig {
                 bins_lo: Vec::new(),
@@ -321,6 +298,72 @@ impl Checkpoint {
             &self.dir,
             format!("the checkpoint is another TSMT model: {line}"),
         ))
+    }
+
+    /// The multi-modal control families' sizes: `[gpt]`, `[genre]`, `[vq]`.
+    fn check_control_shapes(&self, config: &qean_config::RunConfig) -> Result<()> {
+        if let (Some(a), Some(b)) = (&self.config.gpt, &config.gpt) {
+            let shape = |c: &qean_config::gpt::GptConfig| {
+                (
+                    c.codes,
+                    c.rate,
+                    c.hidden,
+                    c.heads,
+                    c.base_layers,
+                    c.head_layers,
+                    c.window,
+                    c.m_layout,
+                    c.text_dim,
+                )
+            };
+            self.same_shape(
+                "GPT",
+                shape(a),
+                shape(b),
+                "codes, rate, hidden, heads, base_layers, head_layers, window, m_layout, text_dim",
+            )?;
+        }
+        if let (Some(a), Some(b)) = (&self.config.genre, &config.genre) {
+            let shape = |c: &qean_config::genre::GenreConfig| {
+                (
+                    c.code_dim,
+                    c.z_dim,
+                    c.tokens,
+                    c.xattn_on,
+                    c.disc_width,
+                    c.disc_layers,
+                    c.disc_ff,
+                    c.disc_heads,
+                )
+            };
+            self.same_shape(
+                "genre module",
+                shape(a),
+                shape(b),
+                "code_dim, z_dim, tokens, xattn_on, disc_width, disc_layers, disc_ff, disc_heads",
+            )?;
+        }
+        if let (Some(a), Some(b)) = (&self.config.vq, &config.vq) {
+            let shape = |c: &qean_config::vq::VqConfig| {
+                (
+                    c.width,
+                    c.code_dim,
+                    c.codes,
+                    c.depth,
+                    c.down_t,
+                    c.enc_dilations,
+                    c.decoder,
+                    c.quantizer,
+                )
+            };
+            self.same_shape(
+                "VQ-VAE",
+                shape(a),
+                shape(b),
+                "width, code_dim, codes, depth, down_t, enc_dilations, decoder, quantizer",
+            )?;
+        }
+        Ok(())
     }
 
     /// An error naming the family and the differing sizes when a section's shape changed.

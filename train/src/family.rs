@@ -9,7 +9,9 @@
 
 use std::path::{Path, PathBuf};
 
-use burn::module::Module;
+use std::collections::HashSet;
+
+use burn::module::{Module, ModuleVisitor, Param, ParamId};
 use burn::tensor::{Device, Tensor};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::windows::{Batch, SequenceSet, WindowSpec};
@@ -34,6 +36,19 @@ pub fn mean_over_first_windows(
         start = end;
     }
     sum / n.max(1) as f64
+}
+
+/// The ids of a module's float parameters (for [`Family::param_groups`]).
+pub fn param_ids<M: Module>(module: &M) -> HashSet<ParamId> {
+    struct Ids(HashSet<ParamId>);
+    impl ModuleVisitor for Ids {
+        fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+            self.0.insert(param.id);
+        }
+    }
+    let mut ids = Ids(HashSet::new());
+    module.visit(&mut ids);
+    ids.0
 }
 
 /// The file a family's extra checkpoint state is written to, beside the weights.
@@ -114,6 +129,26 @@ pub trait Family {
     /// written into the model. Default: the model unchanged.
     fn after_update(&self, model: Self::Model) -> Self::Model {
         model
+    }
+
+    /// Families trained by several optimisers in turn (the genre stage: generator, then discriminator) name
+    /// each group's parameters. Every update then runs one backward pass and one Adam step per group, in
+    /// order, on [`Family::group_loss`]; a group's step moves only its own parameters, and later groups see
+    /// the model the earlier ones updated. Default: none (one optimiser over every parameter, on
+    /// [`Family::loss`]).
+    fn param_groups(&self, _model: &Self::Model) -> Vec<HashSet<ParamId>> {
+        Vec::new()
+    }
+
+    /// The loss of group `group` (families with [`Family::param_groups`]). The trainer reports group 0's.
+    fn group_loss(
+        &self,
+        _model: &Self::Model,
+        _inputs: &Self::Inputs,
+        _group: usize,
+        _config: &RunConfig,
+    ) -> Tensor<1> {
+        unreachable!("a family with param_groups implements group_loss")
     }
 
     /// A factor on the schedule's learning rate at every step (e.g. TSMT's `lr_start_factor`).

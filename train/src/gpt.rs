@@ -161,6 +161,13 @@ pub fn cross_entropy(logits: Tensor<3>, targets: Tensor<2, Int>) -> Tensor<1> {
     )
 }
 
+impl GptFamily {
+    /// The frozen VQ-VAE, once `prepare` has loaded it.
+    pub fn frozen_vq(&self) -> Option<&FrozenVq> {
+        self.vq.as_ref()
+    }
+}
+
 impl Family for GptFamily {
     type Model = Gpt;
     type Inputs = GptInputs;

@@ -7,6 +7,7 @@ pub mod data;
 pub mod export;
 pub mod fact_qean;
 pub mod family;
+pub mod genre;
 pub mod genre_clf;
 pub mod gpt;
 pub mod inbetween;

@@ -7,7 +7,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-use burn::module::{Module, ModuleVisitor, Param};
+use std::collections::HashSet;
+
+use burn::module::{Module, ModuleVisitor, Param, ParamId};
 use burn::optim::decay::WeightDecayConfig;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor};
@@ -146,6 +148,54 @@ pub fn apply_update<M: Module>(
     (optim.step(lr, model, grads), value)
 }
 
+/// Drops every gradient of a module's parameters outside `keep`.
+struct GradKeep<'g> {
+    grads: &'g mut GradientsParams,
+    keep: &'g HashSet<ParamId>,
+}
+
+impl ModuleVisitor for GradKeep<'_> {
+    fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+        if !self.keep.contains(&param.id) {
+            self.grads.remove::<D>(param.id);
+        }
+    }
+}
+
+/// One optimiser update of one parameter group ([`Family::param_groups`]): like [`apply_update`], with
+/// the gradients of every parameter outside `keep` dropped first.
+pub fn apply_group_update<M: Module>(
+    model: M,
+    optim: &mut ModuleOptimizer,
+    loss: Tensor<1>,
+    keep: &HashSet<ParamId>,
+    lr: f64,
+    clip: f64,
+) -> (M, f64) {
+    let value = loss.clone().into_scalar::<f32>() as f64;
+    if !value.is_finite() {
+        return (model, value);
+    }
+    let mut grads = GradientsParams::from_grads(loss.backward(), &model);
+    model.visit(&mut GradKeep {
+        grads: &mut grads,
+        keep,
+    });
+    if clip > 0.0 {
+        clip_global_norm(&model, &mut grads, clip);
+    }
+    (optim.step(lr, model, grads), value)
+}
+
+/// The file of optimiser group `g`'s state (group 0: [`checkpoint::OPTIMIZER_FILE`]).
+fn optimizer_file(g: usize) -> String {
+    if g == 0 {
+        checkpoint::OPTIMIZER_FILE.to_string()
+    } else {
+        format!("optimizer-{g}.bpk")
+    }
+}
+
 /// The device-RNG seed of update `step` (dropout masks are a function of (seed, step)).
 fn update_seed(seed: u64, step: u64) -> u64 {
     let mut z = seed ^ step.wrapping_add(1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
@@ -162,7 +212,8 @@ struct Session<'f, F: Family> {
     device: Device,
     plain: Device,
     model: F::Model,
-    optim: ModuleOptimizer,
+    /// One optimiser per parameter group (one for most families).
+    optims: Vec<ModuleOptimizer>,
     sampler: WindowSampler,
     train_set: SequenceSet,
     val_set: Option<SequenceSet>,
@@ -273,10 +324,12 @@ impl<F: Family> Session<'_, F> {
                 let json = serde_json::to_string_pretty(v).expect("JSON value serialises");
                 std::fs::write(&p, json).map_err(|e| Error::io(&p, e))?;
             }
-            let opt_path = tmp.join(checkpoint::OPTIMIZER_FILE);
-            self.optim
-                .save(&opt_path)
-                .map_err(|e| Error::at(&opt_path, format!("cannot save optimiser state: {e}")))?;
+            for (g, optim) in self.optims.iter().enumerate() {
+                let opt_path = tmp.join(optimizer_file(g));
+                optim.save(&opt_path).map_err(|e| {
+                    Error::at(&opt_path, format!("cannot save optimiser state: {e}"))
+                })?;
+            }
             let state_path = tmp.join(checkpoint::STATE_FILE);
             let json = serde_json::to_string_pretty(&state).expect("state serialises");
             std::fs::write(&state_path, json).map_err(|e| Error::io(&state_path, e))?;
@@ -336,6 +389,9 @@ pub fn train(config: RunConfig, opts: &TrainOptions) -> Result<TrainOutcome> {
     }
     if config.is_genre_clf() {
         return train_family(&mut crate::genre_clf::GenreClfFamily, config, opts);
+    }
+    if config.is_gpt_genre() {
+        return train_family(&mut crate::genre::GenreFamily::default(), config, opts);
     }
     if config.is_gpt() {
         return train_family(&mut crate::gpt::GptFamily::default(), config, opts);
@@ -453,15 +509,18 @@ impl<'f, F: Family> Session<'f, F> {
         // Model, optimiser and stream: fresh, or exactly as the checkpoint left them.
         device.seed(seed);
         let mut model = family.init(&config, &device);
-        let mut optim = adam(&config);
+        let groups = family.param_groups(&model).len().max(1);
+        let mut optims: Vec<ModuleOptimizer> = (0..groups).map(|_| adam(&config)).collect();
         let (step, sampler, last_loss, best, elapsed_before) = match resume {
             None => (0, WindowSampler::new(seed, &train_set), None, None, 0.0),
             Some(ck) => {
                 model = family::load_weights(model, &ck.dir.join(checkpoint::MODEL_FILE))?;
-                let opt_path = ck.dir.join(checkpoint::OPTIMIZER_FILE);
-                optim = optim.load(&opt_path).map_err(|e| {
-                    Error::at(&opt_path, format!("cannot load optimiser state: {e}"))
-                })?;
+                for (g, optim) in optims.iter_mut().enumerate() {
+                    let opt_path = ck.dir.join(optimizer_file(g));
+                    *optim = adam(&config).load(&opt_path).map_err(|e| {
+                        Error::at(&opt_path, format!("cannot load optimiser state: {e}"))
+                    })?;
+                }
                 (
                     ck.state.step,
                     WindowSampler::resume(ck.state.sampler, &train_set),
@@ -496,7 +555,7 @@ impl<'f, F: Family> Session<'f, F> {
             device,
             plain,
             model,
-            optim,
+            optims,
             sampler,
             train_set,
             val_set,
@@ -531,6 +590,30 @@ fn outcome<F: Family>(
     }
 }
 
+/// One update: the family's loss and one Adam step, or one step per parameter group in order (returning
+/// group 0's loss, or the first non-finite one).
+fn update<F: Family>(s: &mut Session<F>, inputs: F::Inputs, lr: f64) -> (F::Model, f64) {
+    let clip = s.config.optim.grad_clip_norm;
+    let groups = s.family.param_groups(&s.model);
+    if groups.is_empty() {
+        let loss = s.family.loss(&s.model, inputs, &s.config);
+        return apply_update(s.model.clone(), &mut s.optims[0], loss, lr, clip);
+    }
+    let mut model = s.model.clone();
+    let mut values = Vec::with_capacity(groups.len());
+    for (g, keep) in groups.iter().enumerate() {
+        let loss = s.family.group_loss(&model, &inputs, g, &s.config);
+        let (next, value) = apply_group_update(model, &mut s.optims[g], loss, keep, lr, clip);
+        model = next;
+        values.push(value);
+        if !value.is_finite() {
+            return (model, value);
+        }
+    }
+    tracing::debug!("group losses {values:?}");
+    (model, values[0])
+}
+
 fn run_loop<F: Family>(s: &mut Session<F>, opts: &TrainOptions) -> Result<TrainOutcome> {
     let total = s.config.train.steps;
     let t = s.config.train.clone();
@@ -559,9 +642,7 @@ fn run_loop<F: Family>(s: &mut Session<F>, opts: &TrainOptions) -> Result<TrainO
         let inputs = s.family.inputs(drawn, &s.model, &s.device, &ctx);
         s.device.seed(rng_seed);
         let lr = s.config.schedule.lr(s.step, total) * s.family.lr_factor(&s.config);
-        let loss = s.family.loss(&s.model, inputs, &s.config);
-        let clip = s.config.optim.grad_clip_norm;
-        let (model, value) = apply_update(s.model.clone(), &mut s.optim, loss, lr, clip);
+        let (model, value) = update(s, inputs, lr);
         if !value.is_finite() {
             reporter.finish();
             return Err(s.diverged(format!("the loss of update {} is {value}", s.step + 1)));

@@ -13,6 +13,7 @@ use burn::tensor::{Device, Int, Tensor, TensorData};
 use qean_config::gpt::{GptConfig, MLayout};
 
 use crate::attention::{merge_heads, split_heads};
+use crate::control::genre::GenreModule;
 use crate::feed_forward::gelu_tanh;
 
 /// Values per music token: `rate` frames × 35 features, frame-major.
@@ -78,6 +79,11 @@ impl Block {
 
     /// x [B, N, D] under `bias` [1, 1, N, N] (0 allowed, −1e9 masked).
     pub fn forward(&self, x: Tensor<3>, bias: Tensor<4>) -> Tensor<3> {
+        self.feed_forward(self.attend(x, bias))
+    }
+
+    /// The self-attention half: x + Attn(LN x).
+    pub fn attend(&self, x: Tensor<3>, bias: Tensor<4>) -> Tensor<3> {
         let h = self.ln1.forward(x.clone());
         let (q, k, v) = (
             split_heads(self.query.forward(h.clone()), self.heads),
@@ -90,7 +96,11 @@ impl Block {
             .matmul(k.swap_dims(2, 3))
             + bias;
         let att = self.dropout.forward(softmax(scores, 3)).matmul(v);
-        let x = x + self.dropout.forward(self.proj.forward(merge_heads(att)));
+        x + self.dropout.forward(self.proj.forward(merge_heads(att)))
+    }
+
+    /// The MLP half: x + MLP(LN x).
+    pub fn feed_forward(&self, x: Tensor<3>) -> Tensor<3> {
         let h = gelu_tanh(self.fc.forward(self.ln2.forward(x.clone())));
         x.clone() + self.dropout.forward(self.fc_out.forward(h))
     }
@@ -152,24 +162,47 @@ impl MBase {
     /// h^M [B, n, D] from input tokens [B, n] (c_{s+j−1}, Start at the sequence start) and music tokens
     /// [B, n, 280] (a_{s+j}).
     pub fn forward(&self, tokens: Tensor<2, Int>, music: Tensor<3>) -> Tensor<3> {
+        self.forward_genre(tokens, music, None)
+    }
+
+    /// [`MBase::forward`] with the genre module's eq. 3 sub-layer after every block's self-attention,
+    /// attending to the genre tokens G [B, n_g, D] (SPEC §13.5).
+    pub fn forward_genre(
+        &self,
+        tokens: Tensor<2, Int>,
+        music: Tensor<3>,
+        genre: Option<(&GenreModule, Tensor<3>)>,
+    ) -> Tensor<3> {
         let [_, n] = tokens.dims();
         let device = music.device();
         let m = self.music(music) + self.pos_music.val().narrow(0, 0, n).unsqueeze::<3>();
         let t =
             self.tokens.forward(tokens) + self.pos_tokens.val().narrow(0, 0, n).unsqueeze::<3>();
-        if self.two_stream {
-            let mut x = self.dropout.forward(Tensor::cat(vec![m, t], 1));
-            let bias = causal_bias(2 * n, 2, &device);
-            for b in &self.blocks {
-                x = b.forward(x, bias.clone());
+        let streams = if self.two_stream { 2 } else { 1 };
+        let (mut x, bias) = if self.two_stream {
+            (Tensor::cat(vec![m, t], 1), causal_bias(2 * n, 2, &device))
+        } else {
+            (m + t, causal_bias(n, 1, &device))
+        };
+        x = self.dropout.forward(x);
+        for (l, b) in self.blocks.iter().enumerate() {
+            x = b.attend(x, bias.clone());
+            if let Some((module, g)) = &genre {
+                let xa = &module.xattn[l];
+                x = if streams == 1 || module.all_positions() {
+                    x.clone() + xa.forward(x, g.clone(), streams)
+                } else {
+                    // Only the music stream queries G: x_m += W_o·eq. 3, the token stream unchanged.
+                    let music = x.clone().narrow(1, 0, n);
+                    let update = xa.forward(music.clone(), g.clone(), 1);
+                    Tensor::cat(vec![music + update, x.narrow(1, n, n)], 1)
+                };
             }
+            x = b.feed_forward(x);
+        }
+        if self.two_stream {
             x.narrow(1, n, n)
         } else {
-            let mut x = self.dropout.forward(m + t);
-            let bias = causal_bias(n, 1, &device);
-            for b in &self.blocks {
-                x = b.forward(x, bias.clone());
-            }
             x
         }
     }
@@ -274,6 +307,18 @@ impl Gpt {
     /// Music mode: logits [B, n, K+1] of c_{s..s+n} from input tokens and music tokens.
     pub fn music_logits(&self, tokens: Tensor<2, Int>, music: Tensor<3>) -> Tensor<3> {
         self.head.forward(self.m_base.forward(tokens, music))
+    }
+
+    /// Music mode with genre control: the genre module's tokens G [B, n_g, D] steer every M-Base block.
+    pub fn genre_logits(
+        &self,
+        tokens: Tensor<2, Int>,
+        music: Tensor<3>,
+        genre: &GenreModule,
+        g: Tensor<3>,
+    ) -> Tensor<3> {
+        self.head
+            .forward(self.m_base.forward_genre(tokens, music, Some((genre, g))))
     }
 
     /// Text mode: logits [B, n, K+1] from the text embedding and n − 1 input tokens.
