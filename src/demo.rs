@@ -59,7 +59,16 @@ const ASSETS: &[Asset] = &[
     asset!("configs/inbetween/paper.toml"),
     asset!("configs/inbetween/tiny.toml"),
     asset!("configs/inbetween/tiny_motion.toml"),
+    asset!("configs/control/vqvae_paper.toml"),
+    asset!("configs/control/vqvae_tiny.toml"),
+    asset!("configs/control/gpt_paper.toml"),
+    asset!("configs/control/gpt_tiny.toml"),
 ];
+
+/// The run names of the demo's motion VQ-VAE (trained beside the dance models) and of the GPT over its
+/// tokens (trained after it).
+const VQ: &str = "vq";
+const GPT: &str = "gpt";
 
 /// The run name of the demo's in-betweener (trained beside the dance models, used by
 /// [`crate::demo_inbetween`]).
@@ -98,11 +107,14 @@ pub struct Budget {
 impl Budget {
     /// Training steps of one demo model: TSMT gets a quarter. It runs at half the others' speed and
     /// does not dance at any CPU budget (docs/tsmt.md), so the full budget would double the demo's time
-    /// for a row that jitters either way. The in-betweener gets half (2,000 steps: its preset's).
+    /// for a row that jitters either way. The in-betweener gets half (2,000 steps: its preset's); the
+    /// VQ-VAE and the GPT three quarters each (3,000: docs/control.md measured these), as they train one
+    /// after the other.
     pub fn steps_for(&self, name: &str) -> u64 {
         match name {
             "tsmt" => (self.steps / 4).max(25),
             INBETWEENER => (self.steps / 2).max(25),
+            VQ | GPT => (self.steps * 3 / 4).max(25),
             _ => self.steps,
         }
     }
@@ -136,6 +148,20 @@ impl Budget {
                 eval_frames: 600,
                 recipe: Vec::new(),
             }
+        }
+    }
+}
+
+impl DemoResult {
+    /// Training was interrupted: no table yet.
+    fn interrupted(dataset: PathBuf) -> DemoResult {
+        DemoResult {
+            dataset,
+            models: Vec::new(),
+            table: String::new(),
+            summary: PathBuf::new(),
+            inbetween: None,
+            finished: false,
         }
     }
 }
@@ -304,7 +330,18 @@ fn train_all(
     let mut plans = Vec::new();
     for (name, _, preset) in presets {
         let steps = opts.budget.steps_for(name);
-        let overrides = overrides(&opts.budget, data, name, steps);
+        let mut overrides = overrides(&opts.budget, data, name, steps);
+        if *name == VQ || *name == GPT {
+            // LR 1e-3 then 1e-4 (the presets' CI-sized 300 steps start lower).
+            overrides.extend([
+                "schedule.initial=1e-3".into(),
+                "schedule.values=[1e-4]".into(),
+            ]);
+        }
+        if *name == GPT {
+            let vq = opts.out.join("runs").join(VQ);
+            overrides.push(string_override("gpt.vqvae_run", &vq.to_string_lossy()));
+        }
         let config = opts.out.join(preset);
         let wanted = RunConfig::load(&config, &overrides)?;
         let run_dir = opts.out.join("runs").join(name);
@@ -790,6 +827,7 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
             "configs/tiny/full.toml",
         ),
         ("tsmt", "tiny TSMT (Li et al.)", "configs/tsmt/tiny.toml"),
+        (VQ, "tiny motion VQ-VAE", "configs/control/vqvae_tiny.toml"),
         (
             INBETWEENER,
             "tiny motion in-betweener (Lin)",
@@ -802,18 +840,20 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
             .zip(t)
             .map(|((name, label, _), t)| (*name, *label, t))
             .collect(),
-        None => {
-            return Ok(DemoResult {
-                dataset: data,
-                models: Vec::new(),
-                table: String::new(),
-                summary: PathBuf::new(),
-                inbetween: None,
-                finished: false,
-            })
-        }
+        None => return Ok(DemoResult::interrupted(data)),
     };
     let (_, _, (ib_ck, _, _)) = trained.pop().expect("the in-betweener is the last preset");
+    trained.pop().expect("the VQ-VAE precedes it");
+    // The GPT learns the VQ-VAE's tokens, so it trains once the VQ-VAE is done.
+    let gpt = [(
+        GPT,
+        "tiny VQ-VAE + GPT (multi-modal control)",
+        "configs/control/gpt_tiny.toml",
+    )];
+    match train_all(opts, &data, &gpt)? {
+        Some(mut t) => trained.push((gpt[0].0, gpt[0].1, t.remove(0))),
+        None => return Ok(DemoResult::interrupted(data)),
+    }
     let reference =
         qean_eval::run_report::dataset_energy_reference(&data, qean_motion::FkRoot::Smpl)?;
     let mut models = Vec::new();

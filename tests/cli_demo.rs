@@ -34,6 +34,7 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
         "| tiny FACT |",
         "| tiny QEAN (full: SPE + QRA) |",
         "| tiny TSMT (Li et al.) |",
+        "| tiny VQ-VAE + GPT (multi-modal control) |",
         "| chance: frozen seed pose |",
         "| chance: tiny FACT with random music (all pairings) |",
     ] {
@@ -46,6 +47,7 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
         "tiny FACT",
         "tiny QEAN (full: SPE + QRA)",
         "tiny TSMT (Li et al.)",
+        "tiny VQ-VAE + GPT (multi-modal control)",
     ] {
         let line = table
             .lines()
@@ -70,7 +72,7 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
     }
     assert!(table.contains("smoke test"), "{table}");
     assert!(table.contains("| beat F1 ↑ | A-seq-D →"), "{table}");
-    for model in ["fact", "qean", "tsmt"] {
+    for model in ["fact", "qean", "tsmt", "gpt"] {
         let dir = out.join("dances").join(model);
         for f in [
             "Vibe_Ace.pkl",
@@ -82,8 +84,12 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
             assert!(dir.join(f).is_file(), "{model}/{f} missing:\n{table}");
         }
         let joints = qean_io::npy::read(&dir.join("Vibe_Ace.joints.npy")).unwrap();
-        // The quick demo's seed is 30 frames (TSMT's own: 120).
-        let seed = if model == "tsmt" { 120 } else { 30 };
+        // The quick demo's seed is 30 frames (TSMT's and the GPT's own: 120).
+        let seed = if model == "tsmt" || model == "gpt" {
+            120
+        } else {
+            30
+        };
         assert_eq!(joints.shape, vec![seed + 1200, 24, 3]);
         let (w, h, bytes) = png_size(&dir.join("Vibe_Ace.png"));
         assert!(

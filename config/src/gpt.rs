@@ -45,6 +45,13 @@ pub struct GptConfig {
     pub pkeep: f64,
     /// One text step every `text_every` steps when text data exists (2: even music, odd text).
     pub text_every: u64,
+    /// Text data: a directory of `NAME.npy` text embeddings (`text_dim` values each, e.g. CLIP) for training
+    /// sequences; sequences without one take no text steps.
+    pub text_dir: Option<std::path::PathBuf>,
+    /// Synthetic text data: every training sequence gets a pseudo-embedding of its genre (a seeded random
+    /// unit vector per AIST++ genre code). It exercises the T-Base and the shared-head alternation; it is
+    /// not language.
+    pub synthetic_text: bool,
     /// Seed tokens of sampling (15 = the first 120 ground-truth frames).
     pub seed_tokens: usize,
     /// Sampling: top-k (1 = greedy, Bailando; 0 = the full distribution) and temperature.
@@ -77,6 +84,8 @@ impl GptConfig {
             m_pkeep: 1.0,
             pkeep: 0.5,
             text_every: 2,
+            text_dir: None,
+            synthetic_text: false,
             seed_tokens: 15,
             top_k: 1,
             temperature: 1.0,

@@ -29,6 +29,9 @@ pub struct GenreQuality {
     pub reference: usize,
     pub fid_k: f64,
     pub fid_g: f64,
+    /// Feature dimensions constant over that genre's ground truth (kinetic + geometric): with few ground-truth
+    /// sequences their normalisation divides by ~0 and the FIDs say nothing.
+    pub constant_dims: usize,
 }
 
 /// The control test's report.
@@ -189,6 +192,7 @@ fn per_genre_quality(
             reference: gt.len(),
             fid_k: r.fid_k,
             fid_g: r.fid_g,
+            constant_dims: r.constant_reference_dims_k.len() + r.constant_reference_dims_g.len(),
         });
     }
     Ok(out)
@@ -216,12 +220,16 @@ pub fn markdown(r: &ControlReport) -> String {
         let cells: Vec<String> = row.iter().map(|c| c.to_string()).collect();
         s += &format!("| {} | {} |\n", GENRES[g], cells.join(" | "));
     }
-    s += "\n| genre | dances | GT sequences | FID_k | FID_g |\n|---|---|---|---|---|\n";
+    s += "\n| genre | dances | GT sequences | FID_k | FID_g | constant GT feature dims |\n|---|---|---|---|---|---|\n";
     for q in &r.per_genre {
         s += &format!(
-            "| {} | {} | {} | {:.2} | {:.2} |\n",
-            q.genre, q.samples, q.reference, q.fid_k, q.fid_g
+            "| {} | {} | {} | {:.2} | {:.2} | {} |\n",
+            q.genre, q.samples, q.reference, q.fid_k, q.fid_g, q.constant_dims
         );
+    }
+    if r.per_genre.iter().any(|q| q.constant_dims > 0) {
+        s += "\nSome genres' ground truth has constant feature dimensions (too few sequences): their FIDs divide by \
+              ~0 after normalisation and are not meaningful.\n";
     }
     s
 }

@@ -88,10 +88,186 @@ pub fn music_tokens(features: &[f32], n: usize, rate: usize) -> Vec<f32> {
     features[..n * rate * FEATURES].to_vec()
 }
 
-/// The GPT family: the frozen VQ-VAE once `prepare` has loaded it.
+/// The GPT family: the frozen VQ-VAE once `prepare` has loaded it, and the text data of text steps.
 #[derive(Default)]
 pub struct GptFamily {
     vq: Option<FrozenVq>,
+    texts: Vec<TextItem>,
+}
+
+/// One (text embedding, motion) pair of the training split: the embedding and the first codes of the motion.
+#[derive(Debug, Clone)]
+pub struct TextItem {
+    pub name: String,
+    pub embedding: Vec<f32>,
+    pub codes: Vec<usize>,
+}
+
+/// A text step's batch: embeddings [B, text_dim], T-Base input tokens [B, n − 1], targets [B, n] and the
+/// positions each row's loss counts (codes + End, at most n).
+pub struct TextInputs {
+    pub text: Tensor<2>,
+    pub tokens: Tensor<2, Int>,
+    pub targets: Tensor<2, Int>,
+    pub lengths: Vec<usize>,
+}
+
+/// A GPT training batch: a music step or a text step (§13.3.6 "Alternation").
+pub enum GptBatch {
+    Music(GptInputs),
+    Text(TextInputs),
+}
+
+/// T2M-GPT's text-step targets for one motion's codes (SPEC §13.3.6): with probability 1/3 the first or the
+/// last code is dropped (even odds), then at most n − 1 codes, End (= K) and Pad (= K + 1) up to n; a longer
+/// motion gives its first n codes and no End. Returns the n targets and the positions the loss counts.
+pub fn text_targets(codes: &[usize], n: usize, k: usize, rng: &mut impl Rng) -> (Vec<i64>, usize) {
+    let mut c: &[usize] = codes;
+    if rng.random_range(0..3) == 2 && c.len() > 1 {
+        c = if rng.random_bool(0.5) {
+            &c[..c.len() - 1]
+        } else {
+            &c[1..]
+        };
+    }
+    let mut t: Vec<i64> = c.iter().take(n).map(|&x| x as i64).collect();
+    if t.len() == n {
+        return (t, n);
+    }
+    t.push(k as i64);
+    let counted = t.len();
+    t.resize(n, k as i64 + 1);
+    (t, counted)
+}
+
+/// Each token kept with probability `pkeep`, otherwise replaced by a uniform random code (T2M-GPT applies
+/// this to every input position, End and Pad included).
+pub fn corrupt(tokens: &mut [i64], codes: usize, pkeep: f64, rng: &mut impl Rng) {
+    if pkeep >= 1.0 {
+        return;
+    }
+    for t in tokens.iter_mut() {
+        if !rng.random_bool(pkeep) {
+            *t = rng.random_range(0..codes as i64);
+        }
+    }
+}
+
+/// A pseudo text embedding of a genre: a unit vector of `dim` seeded normal values (synthetic text data).
+pub fn genre_embedding(genre: usize, dim: usize) -> Vec<f32> {
+    let v = crate::genre::normal_noise(0x7465_7874 ^ genre as u64, dim);
+    let norm = v.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-12);
+    v.iter().map(|x| x / norm).collect()
+}
+
+/// Per-sample mean cross-entropy over each row's first `lengths[b]` positions, then the batch mean.
+pub fn per_sample_cross_entropy(
+    logits: Tensor<3>,
+    targets: Tensor<2, Int>,
+    lengths: &[usize],
+) -> Tensor<1> {
+    let [b, n, k] = logits.dims();
+    let device = logits.device();
+    let weights: Vec<f32> = lengths
+        .iter()
+        .flat_map(|&len| (0..n).map(move |t| if t < len { 1.0 / (len * b) as f32 } else { 0.0 }))
+        .collect();
+    let weights = Tensor::<3>::from_data(TensorData::new(weights, [b, n, 1]), &device);
+    let targets = targets.clamp(0, k as i64 - 1).reshape([b, n, 1]);
+    let picked = burn::tensor::activation::log_softmax(logits, 2).gather(2, targets);
+    (picked * weights).sum().neg()
+}
+
+impl GptFamily {
+    /// The (embedding, motion) pairs of the training split named by `gpt.text_dir` or `gpt.synthetic_text`,
+    /// each with the first n + 1 codes of its motion.
+    fn load_texts(&self, g: &GptConfig, dataset: &Dataset, train: Split) -> Result<Vec<TextItem>> {
+        if g.text_dir.is_none() && !g.synthetic_text {
+            return Ok(Vec::new());
+        }
+        let vq = self.vq.as_ref().expect("the VQ-VAE is loaded first");
+        let mut items = Vec::new();
+        for name in dataset.split(train) {
+            let embedding = match &g.text_dir {
+                Some(dir) => {
+                    let path = dir.join(format!("{name}.npy"));
+                    if !path.is_file() {
+                        continue;
+                    }
+                    let a = qean_io::npy::read(&path)?;
+                    if a.data.len() != g.text_dim {
+                        return Err(Error::at(
+                            &path,
+                            format!(
+                                "a text embedding of {} values; gpt.text_dim is {}",
+                                a.data.len(),
+                                g.text_dim
+                            ),
+                        ));
+                    }
+                    a.data.iter().map(|&v| v as f32).collect()
+                }
+                None => match crate::genre_clf::genre_of(&name) {
+                    Some(genre) => genre_embedding(genre, g.text_dim),
+                    None => continue,
+                },
+            };
+            let path = dataset.motion_path(&name);
+            if !path.is_file() {
+                continue;
+            }
+            let motion = Motion::read_pkl(&path)?;
+            let n = (motion.frames / g.rate).min(g.window + 1);
+            if n == 0 {
+                continue;
+            }
+            let codes = vq
+                .tokens(&motion, n * g.rate)
+                .map_err(|e| Error::msg(format!("{name}: {e}")))?;
+            items.push(TextItem {
+                name,
+                embedding,
+                codes,
+            });
+        }
+        if items.is_empty() {
+            return Err(Error::at(
+                &dataset.root,
+                "text steps are configured (gpt.text_dir or gpt.synthetic_text) but no training sequence has a text embedding",
+            ));
+        }
+        tracing::info!("text steps: {} (embedding, motion) pairs", items.len());
+        Ok(items)
+    }
+
+    /// A text step's batch of `b` pairs drawn with the update's seed.
+    fn text_batch(&self, g: &GptConfig, b: usize, seed: u64, device: &Device) -> TextInputs {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x7465_7874);
+        let n = g.window;
+        let (mut text, mut tokens, mut targets, mut lengths) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for _ in 0..b {
+            let item = &self.texts[rng.random_range(0..self.texts.len())];
+            let (t, counted) = text_targets(&item.codes, n, g.codes, &mut rng);
+            let mut input = t[..n - 1].to_vec();
+            corrupt(&mut input, g.codes, g.pkeep, &mut rng);
+            text.extend_from_slice(&item.embedding);
+            tokens.extend(input);
+            targets.extend(t);
+            lengths.push(counted);
+        }
+        TextInputs {
+            text: Tensor::from_data(TensorData::new(text, [b, g.text_dim]), device),
+            tokens: Tensor::from_data(TensorData::new(tokens, [b, n - 1]), device),
+            targets: Tensor::from_data(TensorData::new(targets, [b, n]), device),
+            lengths,
+        }
+    }
+
+    /// Whether update `step` is a text step.
+    fn is_text_step(&self, g: &GptConfig, step: u64) -> bool {
+        !self.texts.is_empty() && step % g.text_every == g.text_every - 1
+    }
 }
 
 /// A batch: input tokens [B, n], music tokens [B, n, 280], targets [B, n].
@@ -170,7 +346,7 @@ impl GptFamily {
 
 impl Family for GptFamily {
     type Model = Gpt;
-    type Inputs = GptInputs;
+    type Inputs = GptBatch;
 
     fn init(&self, config: &RunConfig, device: &Device) -> Gpt {
         Gpt::new(gpt_of(config), device)
@@ -180,8 +356,8 @@ impl Family for GptFamily {
     fn prepare(
         &mut self,
         config: &mut RunConfig,
-        _dataset: &Dataset,
-        _train: Split,
+        dataset: &Dataset,
+        train: Split,
         resume: Option<&Checkpoint>,
     ) -> Result<()> {
         let g = config
@@ -209,6 +385,7 @@ impl Family for GptFamily {
             vq.checkpoint.state.step
         );
         self.vq = Some(vq);
+        self.texts = self.load_texts(gpt_of(config), dataset, train)?;
         Ok(())
     }
 
@@ -283,16 +460,24 @@ impl Family for GptFamily {
         })
     }
 
-    fn inputs(&self, drawn: Batch, _model: &Gpt, device: &Device, ctx: &StepContext) -> GptInputs {
+    /// A music step's windows, or (every `text_every`-th update, when text data exists) a text step's pairs.
+    fn inputs(&self, drawn: Batch, _model: &Gpt, device: &Device, ctx: &StepContext) -> GptBatch {
         let g = gpt_of(ctx.config);
-        tensors(&drawn, g, g.m_pkeep, ctx.rng_seed, device)
+        if self.is_text_step(g, ctx.step) {
+            return GptBatch::Text(self.text_batch(g, drawn.len(), ctx.rng_seed, device));
+        }
+        GptBatch::Music(tensors(&drawn, g, g.m_pkeep, ctx.rng_seed, device))
     }
 
-    fn loss(&self, model: &Gpt, inputs: GptInputs, _config: &RunConfig) -> Tensor<1> {
-        cross_entropy(
-            model.music_logits(inputs.tokens, inputs.music),
-            inputs.targets,
-        )
+    /// Music: CE over every target through M-Base + head. Text: per-sample CE over codes + End through
+    /// T-Base + head, then the batch mean. The idle base gets no gradient (§13.11 test 8).
+    fn loss(&self, model: &Gpt, inputs: GptBatch, _config: &RunConfig) -> Tensor<1> {
+        match inputs {
+            GptBatch::Music(x) => cross_entropy(model.music_logits(x.tokens, x.music), x.targets),
+            GptBatch::Text(x) => {
+                per_sample_cross_entropy(model.text_logits(x.text, x.tokens), x.targets, &x.lengths)
+            }
+        }
     }
 
     /// Teacher-forced cross-entropy of every sequence's first window.
@@ -317,5 +502,81 @@ impl Family for GptFamily {
             "vqvae_checkpoint": vq.checkpoint.dir,
             "vqvae_params_hash": vq.checkpoint.state.params_hash,
         }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Four standard deviations of a binomial proportion.
+    fn within(count: usize, trials: usize, p: f64) -> bool {
+        let sd = (p * (1.0 - p) / trials as f64).sqrt();
+        ((count as f64 / trials as f64) - p).abs() < 4.0 * sd
+    }
+
+    /// §13.11 test 9: End/Pad layout, the first/last-token drop frequency and the pkeep corruption rate.
+    #[test]
+    fn text_batches_follow_the_t2m_gpt_rules() {
+        let (n, k) = (16, 128);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        // Layout: a short motion gives its codes, End, then Pad; a long one its first n codes, no End.
+        let short: Vec<usize> = (10..20).collect();
+        let long: Vec<usize> = (0..40).collect();
+        let (mut kept, mut first, mut last) = (0, 0, 0);
+        let trials = 30_000;
+        for _ in 0..trials {
+            let (t, counted) = text_targets(&short, n, k, &mut rng);
+            assert_eq!(t.len(), n);
+            let codes = counted - 1;
+            assert_eq!(t[codes], k as i64, "{t:?}");
+            assert!(t[counted..].iter().all(|&x| x == k as i64 + 1), "{t:?}");
+            match (codes, t[0]) {
+                (10, 10) => kept += 1,
+                (9, 11) => first += 1,
+                (9, 10) => {
+                    assert_eq!(t[8], 18);
+                    last += 1
+                }
+                other => panic!("{other:?}"),
+            }
+            let (t, counted) = text_targets(&long, n, k, &mut rng);
+            assert_eq!(counted, n);
+            assert!(t.iter().all(|&x| x < k as i64));
+        }
+        assert_eq!(kept + first + last, trials);
+        assert!(within(first + last, trials, 1.0 / 3.0), "{first} + {last}");
+        assert!(within(first, trials, 1.0 / 6.0), "{first}");
+        // pkeep 0.5: a token changes when it is replaced (1 − pkeep) by another code (1 − 1/K).
+        let mut tokens = vec![5i64; 50_000];
+        corrupt(&mut tokens, k, 0.5, &mut rng);
+        let changed = tokens.iter().filter(|&&t| t != 5).count();
+        assert!(
+            within(changed, tokens.len(), 0.5 * (1.0 - 1.0 / k as f64)),
+            "{changed}"
+        );
+        assert!(tokens.iter().all(|&t| (0..k as i64).contains(&t)));
+        let mut same = vec![7i64; 100];
+        corrupt(&mut same, k, 1.0, &mut rng);
+        assert!(same.iter().all(|&t| t == 7));
+    }
+
+    /// Per-sample CE: each row's mean over its own positions, then the batch mean.
+    #[test]
+    fn text_loss_weights_each_sample_equally() {
+        let device = Device::flex();
+        let logits: Vec<f32> = (0..2 * 3 * 4).map(|i| ((i * 5 % 7) as f32) * 0.4).collect();
+        let t = Tensor::<3>::from_data(TensorData::new(logits.clone(), [2, 3, 4]), &device);
+        let targets = [1i64, 2, 3, 0, 3, 1];
+        let y = Tensor::<2, Int>::from_data(TensorData::new(targets.to_vec(), [2, 3]), &device);
+        let got: f32 = per_sample_cross_entropy(t, y, &[3, 1]).into_scalar();
+        let nll = |row: usize, pos: usize| -> f64 {
+            let l = &logits[(row * 3 + pos) * 4..(row * 3 + pos + 1) * 4];
+            let m = l.iter().cloned().fold(f32::MIN, f32::max) as f64;
+            let z: f64 = l.iter().map(|&v| (v as f64 - m).exp()).sum();
+            -((l[targets[row * 3 + pos] as usize] as f64 - m) - z.ln())
+        };
+        let want = ((nll(0, 0) + nll(0, 1) + nll(0, 2)) / 3.0 + nll(1, 0)) / 2.0;
+        assert!((got as f64 - want).abs() < 1e-5, "{got} vs {want}");
     }
 }

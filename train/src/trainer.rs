@@ -214,6 +214,8 @@ struct Session<'f, F: Family> {
     model: F::Model,
     /// One optimiser per parameter group (one for most families).
     optims: Vec<ModuleOptimizer>,
+    /// The last update's loss of every optimiser group (families with several).
+    group_losses: Vec<f64>,
     sampler: WindowSampler,
     train_set: SequenceSet,
     val_set: Option<SequenceSet>,
@@ -556,6 +558,7 @@ impl<'f, F: Family> Session<'f, F> {
             plain,
             model,
             optims,
+            group_losses: Vec::new(),
             sampler,
             train_set,
             val_set,
@@ -610,8 +613,8 @@ fn update<F: Family>(s: &mut Session<F>, inputs: F::Inputs, lr: f64) -> (F::Mode
             return (model, value);
         }
     }
-    tracing::debug!("group losses {values:?}");
-    (model, values[0])
+    s.group_losses = values;
+    (model, s.group_losses[0])
 }
 
 fn run_loop<F: Family>(s: &mut Session<F>, opts: &TrainOptions) -> Result<TrainOutcome> {
@@ -662,8 +665,14 @@ fn run_loop<F: Family>(s: &mut Session<F>, opts: &TrainOptions) -> Result<TrainO
                 val_loss: val,
                 seconds: s.elapsed(),
             })?;
+            let groups = if s.group_losses.len() > 1 {
+                let each: Vec<String> = s.group_losses.iter().map(|v| format!("{v:.4e}")).collect();
+                format!(" (per optimiser group: {})", each.join(", "))
+            } else {
+                String::new()
+            };
             tracing::info!(
-                "step {} lr {lr:e} loss {value:.6e}{}",
+                "step {} lr {lr:e} loss {value:.6e}{groups}{}",
                 s.step,
                 val.map(|v| format!(" val_loss {v:.6e}"))
                     .unwrap_or_default()
