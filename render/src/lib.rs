@@ -6,6 +6,7 @@
 pub mod canvas;
 pub mod export;
 pub mod font;
+pub mod gltf;
 
 use std::path::Path;
 

@@ -178,13 +178,14 @@ pub fn render(a: RenderArgs) -> anyhow::Result<()> {
 /// positions become SMPL rotations by inverse kinematics (SPEC §11.3), with the bones at SMPL's lengths.
 #[derive(Args, Debug)]
 #[command(
-    about = "Convert a motion between .pkl, .npy and .bvh (joint positions by IK)",
-    after_help = "Examples:\n  qean convert dance.pkl --out dance.bvh\n  qean convert other_system.joints.npy --out dance.pkl\n  qean convert other_system.joints.npy --out dance.bvh --ik hinge"
+    about = "Convert a motion between .pkl, .npy and .bvh (joint positions by IK), or to glTF (.glb, .gltf)",
+    after_help = "Examples:\n  qean convert dance.pkl --out dance.bvh\n  qean convert dance.pkl --out dance.glb   (Blender: File > Import > glTF 2.0)\n  qean convert other_system.joints.npy --out dance.pkl\n  qean convert other_system.joints.npy --out dance.bvh --ik hinge"
 )]
 pub struct ConvertArgs {
     /// Input motion: .pkl (AIST++), .npy (frames, 225|219) or joint positions (.npy (frames, 24, 3), .bvh).
     pub motion: PathBuf,
-    /// Output file; the format follows the extension (.bvh, .npy, .pkl).
+    /// Output file; the format follows the extension (.bvh, .npy, .pkl; .glb or .gltf: the SMPL skeleton as
+    /// animated glTF 2.0 nodes at 60 fps, for Blender, three.js or any glTF viewer).
     #[arg(long)]
     pub out: PathBuf,
     /// Root convention for joint positions and the BVH root channel.
@@ -247,8 +248,9 @@ pub fn convert(a: ConvertArgs) -> anyhow::Result<()> {
         "bvh" => qean_motion::bvh::write(&a.out, &motion, root)?,
         "npy" => qean_motion::joints_file::write_joints(&a.out, &motion.joints(root))?,
         "pkl" => motion.write_pkl(&a.out, qean_motion::motion::Precision::F64)?,
+        "glb" | "gltf" => qean_render::gltf::write(&a.out, &motion, root)?,
         _ => anyhow::bail!(
-            "{}: unknown output format (use .bvh, .npy or .pkl)",
+            "{}: unknown output format (use .bvh, .npy, .pkl, .glb or .gltf)",
             a.out.display()
         ),
     }

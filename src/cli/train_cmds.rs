@@ -11,8 +11,10 @@ use qean_config::RunConfig;
 use qean_train::checkpoint::{self, Checkpoint};
 use qean_train::{sweep, ProgressMode, TrainOptions};
 
-/// Train FACT or QEAN from a TOML run config (SPEC §5): random 240-frame windows of the train split,
-/// L2 loss on the first 20 output tokens, Adam with the configured step schedule. Writes R/config.toml
+/// Train a model from a TOML run config (SPEC §5): FACT and QEAN (random 240-frame windows of the train
+/// split, L2 loss on the first 20 output tokens), TSMT, the in-betweeners, the motion VQ-VAE, the GPT over
+/// its tokens, genre control over a GPT and the genre classifier (the config's model.arch), each with Adam
+/// and the configured step schedule (the genre stage: one Adam per optimiser group). Writes R/config.toml
 /// (resolved), R/metrics.csv (step, lr, loss, val_loss, seconds), R/train.log, R/loss.png and
 /// R/checkpoints/step-N/ (model, optimiser, trainer state; the last train.keep_last plus the best by
 /// validation loss). Ctrl-C writes a checkpoint and stops; `--resume R` continues exactly.
@@ -20,9 +22,13 @@ use qean_train::{sweep, ProgressMode, TrainOptions};
 /// Examples:
 ///   qean train --config configs/tiny/full.toml --data synth --run-dir runs/full
 ///   qean train --resume runs/full --set train.steps=4000
+///   qean train --config configs/control/vqvae_tiny.toml --data synth --run-dir runs/vq
+///   qean train --config configs/control/gpt_tiny.toml --data synth --set gpt.vqvae_run=runs/vq
 #[derive(Args, Debug)]
 #[command(verbatim_doc_comment)]
-#[command(about = "Train FACT or QEAN from a TOML run config, or resume a run")]
+#[command(
+    about = "Train a model (FACT, QEAN, TSMT, in-betweener, VQ-VAE, GPT, genre control) from a TOML run config, or resume a run"
+)]
 pub struct TrainArgs {
     /// Run config (TOML; see configs/README.md). Optional with --resume (R/config.toml is used).
     #[arg(long, required_unless_present = "resume")]

@@ -116,19 +116,10 @@ pub fn validation_loss(
     device: &Device,
     predict: Predict,
 ) -> f64 {
-    let all = set.first_windows();
-    let n = all.len();
-    let mut sum = 0.0;
-    let mut start = 0;
-    while start < n {
-        let end = (start + batch_size).min(n);
-        let chunk = all.slice(start, end);
+    crate::family::mean_over_first_windows(set, batch_size, |chunk| {
         let (m, a, t) = tensors(&chunk, device, predict);
-        let loss = motion_loss(model.forward(m, a), t).into_scalar::<f32>() as f64;
-        sum += loss * (end - start) as f64;
-        start = end;
-    }
-    sum / n as f64
+        motion_loss(model.forward(m, a), t)
+    })
 }
 
 impl Family for FactQean {

@@ -132,19 +132,11 @@ pub fn tensors(batch: &Batch, device: &Device) -> (TsmtInput, Tensor<3, Int>) {
 /// Teacher-forced validation loss (SPEC §11.7 step 5): the s = 0 window of every sequence, no
 /// dropout, the masked cross-entropy averaged over the windows.
 pub fn validation_loss(model: &Tsmt, set: &SequenceSet, batch_size: usize, device: &Device) -> f64 {
-    let all = set.first_windows();
-    let n = all.len();
-    let mut sum = 0.0;
-    let mut start = 0;
-    while start < n {
-        let end = (start + batch_size).min(n);
-        let (input, targets) = tensors(&all.slice(start, end), device);
+    crate::family::mean_over_first_windows(set, batch_size, |chunk| {
+        let (input, targets) = tensors(&chunk, device);
         let lengths = input.lengths.clone();
-        let loss = masked_cross_entropy(model.forward(input), targets, &lengths);
-        sum += loss.into_scalar::<f32>() as f64 * (end - start) as f64;
-        start = end;
-    }
-    sum / n.max(1) as f64
+        masked_cross_entropy(model.forward(input), targets, &lengths)
+    })
 }
 
 impl Family for TsmtFamily {
