@@ -178,7 +178,7 @@ pub fn render(a: RenderArgs) -> anyhow::Result<()> {
 /// positions become SMPL rotations by inverse kinematics (SPEC §11.3), with the bones at SMPL's lengths.
 #[derive(Args, Debug)]
 #[command(
-    about = "Convert a motion between .pkl, .npy and .bvh (joint positions by IK), or to glTF (.glb, .gltf)",
+    about = "Convert a motion between .pkl, .npy, .bvh (IK from positions) and glTF .glb",
     after_help = "Examples:\n  qean convert dance.pkl --out dance.bvh\n  qean convert dance.pkl --out dance.glb   (Blender: File > Import > glTF 2.0)\n  qean convert other_system.joints.npy --out dance.pkl\n  qean convert other_system.joints.npy --out dance.bvh --ik hinge"
 )]
 pub struct ConvertArgs {

@@ -26,9 +26,7 @@ use qean_train::{sweep, ProgressMode, TrainOptions};
 ///   qean train --config configs/control/gpt_tiny.toml --data synth --set gpt.vqvae_run=runs/vq
 #[derive(Args, Debug)]
 #[command(verbatim_doc_comment)]
-#[command(
-    about = "Train a model (FACT, QEAN, TSMT, in-betweener, VQ-VAE, GPT, genre control) from a TOML run config, or resume a run"
-)]
+#[command(about = "Train a model of any family from a TOML run config, or resume a run")]
 pub struct TrainArgs {
     /// Run config (TOML; see configs/README.md). Optional with --resume (R/config.toml is used).
     #[arg(long, required_unless_present = "resume")]
