@@ -69,7 +69,8 @@ fn convert_writes_valid_gltf_and_refuses_bad_outputs() {
             assert_eq!(&bytes[..4], b"glTF");
         } else {
             let doc: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
-            assert_eq!(doc["nodes"].as_array().unwrap().len(), 24);
+            assert_eq!(doc["nodes"].as_array().unwrap().len(), 25);
+            assert_eq!(doc["skins"][0]["joints"].as_array().unwrap().len(), 24);
             let times = &doc["accessors"][0];
             let frames = times["count"].as_u64().unwrap();
             let last = times["max"][0].as_f64().unwrap();

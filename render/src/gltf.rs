@@ -16,29 +16,223 @@ use serde_json::{json, Value};
 /// glTF's FLOAT component type.
 const FLOAT: u32 = 5126;
 
-/// The binary buffer and the JSON document (without its buffer URI) of a motion.
-fn document(motion: &Motion, root: FkRoot) -> (Vec<u8>, Value) {
-    let frames = motion.frames;
-    let mut bin: Vec<u8> = Vec::new();
-    let mut views = Vec::new();
-    let mut accessors = Vec::new();
-    let mut push = |values: &[f32], kind: &str, extra: Value| -> usize {
-        let offset = bin.len();
-        for v in values {
-            bin.extend_from_slice(&v.to_le_bytes());
+/// glTF's UNSIGNED_SHORT component type and the buffer-view targets of vertex attributes and indices.
+const UNSIGNED_SHORT: u32 = 5123;
+const ARRAY_BUFFER: u32 = 34962;
+const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+
+/// The binary buffer with one buffer view per accessor, each 4-byte aligned.
+#[derive(Default)]
+struct Buffer {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl Buffer {
+    /// An accessor over `bytes` (little-endian values of `component`), `count` elements of `kind`; `extra`
+    /// (min/max) is merged in. Returns its index.
+    fn push(
+        &mut self,
+        bytes: Vec<u8>,
+        component: u32,
+        count: usize,
+        kind: &str,
+        target: Option<u32>,
+        extra: Value,
+    ) -> usize {
+        while !self.bin.len().is_multiple_of(4) {
+            self.bin.push(0);
         }
-        views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": values.len() * 4}));
+        let mut view =
+            json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()});
+        if let Some(t) = target {
+            view["target"] = json!(t);
+        }
+        self.bin.extend(bytes);
+        self.views.push(view);
         let mut a = json!({
-            "bufferView": views.len() - 1,
-            "componentType": FLOAT,
-            "count": frames,
+            "bufferView": self.views.len() - 1,
+            "componentType": component,
+            "count": count,
             "type": kind,
         });
         if let (Value::Object(a), Value::Object(e)) = (&mut a, extra) {
             a.extend(e);
         }
-        accessors.push(a);
-        accessors.len() - 1
+        self.accessors.push(a);
+        self.accessors.len() - 1
+    }
+
+    fn floats(&mut self, values: &[f32], kind: &str, target: Option<u32>, extra: Value) -> usize {
+        let width = match kind {
+            "SCALAR" => 1,
+            "VEC3" => 3,
+            "VEC4" => 4,
+            _ => 16,
+        };
+        let bytes = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        self.push(bytes, FLOAT, values.len() / width, kind, target, extra)
+    }
+
+    fn shorts(&mut self, values: &[u16], kind: &str, target: u32) -> usize {
+        let width = if kind == "SCALAR" { 1 } else { 4 };
+        let bytes = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        self.push(
+            bytes,
+            UNSIGNED_SHORT,
+            values.len() / width,
+            kind,
+            Some(target),
+            json!({}),
+        )
+    }
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|k| a[k] - b[k])
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn unit(a: [f64; 3]) -> [f64; 3] {
+    let n = a.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-12);
+    a.map(|v| v / n)
+}
+
+/// A box of half-width `w` from `a` to `b` (8 corners, 12 outward-facing triangles), appended to `verts`
+/// and `tris`, every corner bound to joint `joint`.
+fn bone_box(
+    a: [f64; 3],
+    b: [f64; 3],
+    w: f64,
+    joint: u16,
+    verts: &mut Vec<([f64; 3], u16)>,
+    tris: &mut Vec<u16>,
+) {
+    let dir = unit(sub(b, a));
+    let helper = if dir[1].abs() < 0.9 {
+        [0.0, 1.0, 0.0]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let u = unit(cross(dir, helper));
+    let v = cross(dir, u);
+    let base = verts.len() as u16;
+    for end in [a, b] {
+        for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            verts.push((
+                std::array::from_fn(|k| end[k] + w * (su * u[k] + sv * v[k])),
+                joint,
+            ));
+        }
+    }
+    let centre: [f64; 3] = std::array::from_fn(|k| (a[k] + b[k]) / 2.0);
+    let faces = [
+        [0, 1, 2, 3],
+        [4, 5, 6, 7],
+        [0, 1, 5, 4],
+        [1, 2, 6, 5],
+        [2, 3, 7, 6],
+        [3, 0, 4, 7],
+    ];
+    for f in faces {
+        for t in [[f[0], f[1], f[2]], [f[0], f[2], f[3]]] {
+            let p = t.map(|i| verts[base as usize + i].0);
+            let normal = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+            let out = sub(p[0], centre);
+            let flip = normal.iter().zip(&out).map(|(x, y)| x * y).sum::<f64>() < 0.0;
+            let t = if flip { [t[0], t[2], t[1]] } else { t };
+            tris.extend(t.map(|i| base + i as u16));
+        }
+    }
+}
+
+/// A simple body skinned to the skeleton: a box along every bone, bound rigidly to the bone's parent joint, and
+/// a head. Returns the mesh and the skin (bind pose: the rest pose with the pelvis at the origin).
+fn body(buf: &mut Buffer) -> (Value, Value) {
+    let rest = qean_motion::skeleton::rest_joints([0.0; 3]);
+    let (mut verts, mut tris) = (Vec::new(), Vec::new());
+    for j in 1..NUM_JOINTS {
+        let p = PARENTS[j] as usize;
+        let w = if [3, 6, 9, 1, 2].contains(&j) {
+            0.07
+        } else {
+            0.035
+        };
+        bone_box(rest[p], rest[j], w, p as u16, &mut verts, &mut tris);
+    }
+    let head = rest[15];
+    bone_box(
+        head,
+        [head[0], head[1] + 0.2, head[2]],
+        0.09,
+        15,
+        &mut verts,
+        &mut tris,
+    );
+    let positions: Vec<f32> = verts
+        .iter()
+        .flat_map(|(p, _)| p.map(|v| v as f32))
+        .collect();
+    let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+    for p in positions.chunks_exact(3) {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let position = buf.floats(
+        &positions,
+        "VEC3",
+        Some(ARRAY_BUFFER),
+        json!({"min": lo, "max": hi}),
+    );
+    let joints: Vec<u16> = verts.iter().flat_map(|(_, j)| [*j, 0, 0, 0]).collect();
+    let joints = buf.shorts(&joints, "VEC4", ARRAY_BUFFER);
+    let weights: Vec<f32> = verts.iter().flat_map(|_| [1.0, 0.0, 0.0, 0.0]).collect();
+    let weights = buf.floats(&weights, "VEC4", Some(ARRAY_BUFFER), json!({}));
+    let indices = buf.shorts(&tris, "SCALAR", ELEMENT_ARRAY_BUFFER);
+    // Inverse bind matrices: the inverse of each joint's rest transform (a translation), column-major.
+    let ibm: Vec<f32> = rest
+        .iter()
+        .flat_map(|p| {
+            let mut m = [0.0f32; 16];
+            m[0] = 1.0;
+            m[5] = 1.0;
+            m[10] = 1.0;
+            m[15] = 1.0;
+            for k in 0..3 {
+                m[12 + k] = -p[k] as f32;
+            }
+            m
+        })
+        .collect();
+    let ibm = buf.floats(&ibm, "MAT4", None, json!({}));
+    let mesh = json!({
+        "name": "body",
+        "primitives": [{
+            "attributes": {"POSITION": position, "JOINTS_0": joints, "WEIGHTS_0": weights},
+            "indices": indices,
+            "material": 0,
+        }],
+    });
+    let skin = json!({"joints": (0..NUM_JOINTS).collect::<Vec<_>>(), "inverseBindMatrices": ibm, "skeleton": 0});
+    (mesh, skin)
+}
+
+/// The binary buffer and the JSON document (without its buffer URI) of a motion.
+fn document(motion: &Motion, root: FkRoot) -> (Vec<u8>, Value) {
+    let frames = motion.frames;
+    let mut buf = Buffer::default();
+    let mut push = |values: &[f32], kind: &str, extra: Value| -> usize {
+        buf.floats(values, kind, None, extra)
     };
     let times: Vec<f32> = (0..frames).map(|f| (f as f64 / FPS) as f32).collect();
     let last = *times.last().unwrap_or(&0.0);
@@ -77,7 +271,7 @@ fn document(motion: &Motion, root: FkRoot) -> (Vec<u8>, Value) {
             json!({"sampler": samplers.len() - 1, "target": {"node": j, "path": "rotation"}}),
         );
     }
-    let nodes: Vec<Value> = (0..NUM_JOINTS)
+    let mut nodes: Vec<Value> = (0..NUM_JOINTS)
         .map(|j| {
             let t: [f64; 3] = if j == 0 {
                 roots[0].map(|v| v as f64)
@@ -94,27 +288,36 @@ fn document(motion: &Motion, root: FkRoot) -> (Vec<u8>, Value) {
             n
         })
         .collect();
+    let (mesh, skin) = body(&mut buf);
+    nodes.push(json!({"name": "body", "mesh": 0, "skin": 0}));
     let doc = json!({
         "asset": {"version": "2.0", "generator": concat!("qean ", env!("CARGO_PKG_VERSION"))},
         "scene": 0,
-        "scenes": [{"name": "dance", "nodes": [0]}],
+        "scenes": [{"name": "dance", "nodes": [0, NUM_JOINTS]}],
         "nodes": nodes,
+        "meshes": [mesh],
+        "skins": [skin],
+        "materials": [{
+            "name": "figure",
+            "doubleSided": true,
+            "pbrMetallicRoughness": {"baseColorFactor": [0.35, 0.55, 0.85, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.8},
+        }],
         "animations": [{"name": "dance", "samplers": samplers, "channels": channels}],
-        "buffers": [{"byteLength": bin.len()}],
-        "bufferViews": views,
-        "accessors": accessors,
+        "buffers": [{"byteLength": buf.bin.len()}],
+        "bufferViews": buf.views,
+        "accessors": buf.accessors,
     });
-    (bin, doc)
+    (buf.bin, doc)
 }
 
 /// The motion as a binary glTF (GLB): header, JSON chunk (space-padded), BIN chunk (zero-padded).
 pub fn to_glb(motion: &Motion, root: FkRoot) -> Vec<u8> {
     let (mut bin, doc) = document(motion, root);
     let mut json = serde_json::to_vec(&doc).expect("JSON values serialise");
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + json.len() + 8 + bin.len();
@@ -250,7 +453,7 @@ mod tests {
             let m = motion(90);
             let glb = to_glb(&m, root);
             let (doc, bin) = chunk_json(&glb);
-            assert_eq!(doc["nodes"].as_array().unwrap().len(), NUM_JOINTS);
+            assert_eq!(doc["nodes"].as_array().unwrap().len(), NUM_JOINTS + 1);
             let anim = &doc["animations"][0];
             let times = accessor(&doc, bin, 0);
             assert_eq!(times.len(), 90);
