@@ -7,6 +7,7 @@ pub mod canvas;
 pub mod export;
 pub mod font;
 pub mod gltf;
+pub mod view;
 
 use std::path::Path;
 

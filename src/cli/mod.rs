@@ -9,6 +9,7 @@ mod edit_cmds;
 mod features_cmd;
 mod sample_cmd;
 mod train_cmds;
+mod view_cmd;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -35,6 +36,7 @@ pub enum Command {
     Joints(data_cmds::JointsArgs),
     Render(data_cmds::RenderArgs),
     Convert(data_cmds::ConvertArgs),
+    View(view_cmd::ViewArgs),
     Keyframes(edit_cmds::KeyframesArgs),
     Edit(edit_cmds::EditArgs),
     Train(train_cmds::TrainArgs),
@@ -91,6 +93,7 @@ fn run_data(command: Command) -> anyhow::Result<()> {
         Command::Joints(a) => data_cmds::joints(a),
         Command::Render(a) => data_cmds::render(a),
         Command::Convert(a) => data_cmds::convert(a),
+        Command::View(a) => view_cmd::view(a),
         Command::Keyframes(a) => edit_cmds::keyframes(a),
         Command::Edit(a) => edit_cmds::edit(a),
         Command::Eval(a) => {
