@@ -518,6 +518,45 @@ fn dance(
     ))
 }
 
+/// `dances/compare.html`: the first test sequence's ground truth (to its own music) beside every model's
+/// dance to the held-out song, with that song playing.
+fn compare_page(out: &Path, data: &Path, models: &[ModelResult]) -> anyhow::Result<PathBuf> {
+    use qean_pipeline::view::{write_page, PageDance, PageMusic};
+    let root = qean_motion::FkRoot::Smpl;
+    let ds = qean_aistpp::dataset::Dataset::open(data)?;
+    let first = ds
+        .split(qean_aistpp::dataset::Split::Test)
+        .into_iter()
+        .next()
+        .context("the demo dataset has no test sequence")?;
+    let gt = qean_motion::motion::Motion::read_pkl(&ds.motion_path(&first))?;
+    let mut dances = vec![PageDance {
+        label: format!("ground truth ({first}, to its own music)"),
+        joints: gt.joints(root),
+        seed_frames: 0,
+    }];
+    for m in models {
+        let npy = m
+            .dance
+            .iter()
+            .find(|p| p.to_string_lossy().ends_with(".joints.npy"))
+            .context("a demo dance without joints")?;
+        let ck = qean_train::checkpoint::Checkpoint::read(&m.checkpoint)?;
+        dances.push(PageDance {
+            label: m.label.clone(),
+            joints: qean_motion::joints_file::load_joints(npy, root)?,
+            seed_frames: ck.config.seed_frames(),
+        });
+    }
+    let page = out.join("dances").join("compare.html");
+    let music = PageMusic {
+        path: out.join(HELD_OUT),
+        link: false,
+    };
+    write_page(&page, &dances, Some(&music), "qean demo: the held-out song")?;
+    Ok(page)
+}
+
 fn evaluate(
     run_dir: &Path,
     data: &Path,
@@ -879,6 +918,11 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
             report,
         });
     }
+    let page = compare_page(out, &data, &models)?;
+    say(format!(
+        "view: {} (every model's dance to the held-out song in 3-D with the music; open it in a browser)",
+        page.display()
+    ));
     say(format!(
         "in-betweening: rebuilding a test dance from {} keys per measure",
         crate::demo_inbetween::KEYS

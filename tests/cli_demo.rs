@@ -72,6 +72,18 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
     }
     assert!(table.contains("smoke test"), "{table}");
     assert!(table.contains("| beat F1 ↑ | A-seq-D →"), "{table}");
+    // The 3-D page: every model's dance and the ground truth, the held-out song embedded.
+    let page = std::fs::read_to_string(out.join("dances/compare.html")).unwrap();
+    for label in [
+        "ground truth",
+        "tiny FACT",
+        "tiny QEAN",
+        "tiny TSMT",
+        "tiny VQ-VAE + GPT",
+    ] {
+        assert!(page.contains(label), "{label} missing from the page");
+    }
+    assert!(page.contains("data:audio/ogg;base64,"));
     for model in ["fact", "qean", "tsmt", "gpt"] {
         let dir = out.join("dances").join(model);
         for f in [

@@ -106,9 +106,15 @@ fn tiny_vq_gpt_trains_resumes_and_dances() {
             .arg(&straight)
             .arg("--music")
             .arg(&song)
+            .arg("--view")
             .arg("--out")
             .arg(&out),
     );
+    let page = out.join("Kevin_MacLeod_-_Vibe_Ace.view.html");
+    assert!(printed.contains(&page.display().to_string()), "{printed}");
+    assert!(std::fs::read_to_string(&page)
+        .unwrap()
+        .contains("qean-data"));
     assert!(
         printed.contains("120 seed + 1200 generated frames"),
         "{printed}"

@@ -15,6 +15,7 @@ pub mod inbetween;
 pub mod inbetweener;
 pub mod keyframes;
 pub mod tsmt;
+pub mod view;
 pub mod vq;
 
 pub use error::{Error, Result};

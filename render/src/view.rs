@@ -23,6 +23,8 @@ pub struct ViewDance {
     pub joints: Vec<[f64; 3]>,
     /// Motion beats (frames).
     pub motion_beats: Vec<usize>,
+    /// Leading frames that are the seed (shaded on the timeline).
+    pub seed_frames: usize,
 }
 
 /// The music: embedded bytes or a link relative to the page, with its beats (frames at 60 fps).
@@ -43,8 +45,6 @@ pub struct ViewMusic {
 #[derive(Debug, Clone)]
 pub struct ViewOptions {
     pub title: String,
-    /// Leading frames of every dance that are its seed (marked on the timeline).
-    pub seed_frames: usize,
 }
 
 /// The MIME type of an audio file by its extension.
@@ -81,7 +81,6 @@ fn escape(s: &str) -> String {
 pub fn page(dances: &[ViewDance], music: Option<&ViewMusic>, opts: &ViewOptions) -> String {
     let data = json!({
         "fps": 60,
-        "seed_frames": opts.seed_frames,
         "parents": qean_motion::skeleton::PARENTS,
         "music_beats": music.map(|m| m.beats.clone()).unwrap_or_default(),
         "dances": dances.iter().map(|d| {
@@ -91,6 +90,7 @@ pub fn page(dances: &[ViewDance], music: Option<&ViewMusic>, opts: &ViewOptions)
                 "frames": d.joints.len() / 24,
                 "joints": base64(&values),
                 "motion_beats": d.motion_beats,
+                "seed_frames": d.seed_frames,
             })
         }).collect::<Vec<_>>(),
     });

@@ -117,9 +117,9 @@ function drawTimeline(t) {
   const h = (timeline.height = timeline.clientHeight * (window.devicePixelRatio || 1));
   const g = timeline.getContext('2d');
   const x = (frame) => (frame / fps / duration) * w;
-  g.fillStyle = '#e6e6e0';
-  g.fillRect(0, 0, x(data.seed_frames), h);
   const rows = 1 + dances.length;
+  g.fillStyle = '#e6e6e0';
+  dances.forEach((d, i) => g.fillRect(0, ((i + 1) * h) / rows, x(d.seed_frames), h / rows));
   g.fillStyle = '#333';
   for (const f of data.music_beats) g.fillRect(x(f), 0, 1.5, h / rows);
   dances.forEach((d, i) => {
@@ -150,7 +150,8 @@ function show(t) {
   controls.update();
   renderer.render(scene, camera);
   drawTimeline(t);
-  status.textContent = `t ${t.toFixed(2)} s · frame ${frame} / ${frames}` + (frame < data.seed_frames ? ' · seed' : '');
+  const seeds = dances.filter((d) => frame < d.seed_frames).map((d) => d.label);
+  status.textContent = `t ${t.toFixed(2)} s · frame ${frame} / ${frames}` + (seeds.length ? ` · seed of ${seeds.join(', ')}` : '');
   return frame;
 }
 let fixed = null;

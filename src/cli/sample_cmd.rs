@@ -86,6 +86,9 @@ pub struct SampleArgs {
     /// Also write a preview: PNG contact sheet with beats marked, and an animated GIF.
     #[arg(long)]
     pub render: bool,
+    /// Also write NAME.view.html per song: the dance in 3-D with its music, in one offline page (`qean view`).
+    #[arg(long)]
+    pub view: bool,
     /// Backend (default: the run's).
     #[arg(long, value_enum)]
     pub backend: Option<qean_models::backend::Backend>,
@@ -168,6 +171,9 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         pb.set_position(done as u64);
     })?;
     pb.finish_and_clear();
+    if a.view {
+        write_views(&a, &ck, &songs, &written)?;
+    }
     println!("checkpoint: {} (step {})", ck.dir.display(), ck.state.step);
     let reference = energy_reference(&a.run, &ck);
     let seed_frames = ck.config.seed_frames();
@@ -225,6 +231,35 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         }
     }
     Ok(0)
+}
+
+/// `--view`: one page per song with its dance and music.
+fn write_views(
+    a: &SampleArgs,
+    ck: &checkpoint::Checkpoint,
+    songs: &[generate::Song],
+    written: &[generate::Generated],
+) -> anyhow::Result<()> {
+    let label = a
+        .run
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "dance".into());
+    for (song, g) in songs.iter().zip(written) {
+        let page = a.out.join(format!("{}.view.html", g.name));
+        let dance = qean_pipeline::view::PageDance {
+            label: label.clone(),
+            joints: g.joints.clone(),
+            seed_frames: ck.config.seed_frames(),
+        };
+        let music = qean_pipeline::view::PageMusic {
+            path: song.path.clone(),
+            link: false,
+        };
+        qean_pipeline::view::write_page(&page, &[dance], Some(&music), &g.name)?;
+        println!("  {}", page.display());
+    }
+    Ok(())
 }
 
 /// `--genre CODE --z-seed S`, for a genre-control run only.
