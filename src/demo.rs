@@ -553,7 +553,13 @@ fn compare_page(out: &Path, data: &Path, models: &[ModelResult]) -> anyhow::Resu
         path: out.join(HELD_OUT),
         link: false,
     };
-    write_page(&page, &dances, Some(&music), "qean demo: the held-out song")?;
+    write_page(
+        &page,
+        &dances,
+        Some(&music),
+        "qean demo: the held-out song",
+        false,
+    )?;
     Ok(page)
 }
 

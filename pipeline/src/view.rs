@@ -23,12 +23,13 @@ pub struct PageMusic {
     pub link: bool,
 }
 
-/// Writes the page `out` (atomically).
+/// Writes the page `out` (atomically); `overlay` draws the dances at one place instead of side by side.
 pub fn write_page(
     out: &Path,
     dances: &[PageDance],
     music: Option<&PageMusic>,
     title: &str,
+    overlay: bool,
 ) -> Result<()> {
     let view: Vec<ViewDance> = dances
         .iter()
@@ -49,6 +50,7 @@ pub fn write_page(
         music.as_ref(),
         &ViewOptions {
             title: title.to_string(),
+            overlay,
         },
     )?;
     Ok(())

@@ -45,6 +45,8 @@ pub struct ViewMusic {
 #[derive(Debug, Clone)]
 pub struct ViewOptions {
     pub title: String,
+    /// Draw every dance at the same place (compare poses directly) instead of side by side.
+    pub overlay: bool,
 }
 
 /// The MIME type of an audio file by its extension.
@@ -81,6 +83,7 @@ fn escape(s: &str) -> String {
 pub fn page(dances: &[ViewDance], music: Option<&ViewMusic>, opts: &ViewOptions) -> String {
     let data = json!({
         "fps": 60,
+        "overlay": opts.overlay,
         "parents": qean_motion::skeleton::PARENTS,
         "music_beats": music.map(|m| m.beats.clone()).unwrap_or_default(),
         "dances": dances.iter().map(|d| {

@@ -30,7 +30,7 @@ scene.add(new THREE.HemisphereLight(0xffffff, 0x8888aa, 2.2));
 const sun = new THREE.DirectionalLight(0xffffff, 1.5);
 sun.position.set(2, 5, 3);
 scene.add(sun);
-const spacing = 1.6;
+const spacing = data.overlay ? 0 : 1.6;
 const width = spacing * (dances.length - 1);
 scene.add(new THREE.GridHelper(Math.max(8, width + 6), Math.round(Math.max(8, width + 6) / 0.5), 0x999999, 0xcccccc));
 const camera = new THREE.PerspectiveCamera(40, 1, 0.05, 100);

@@ -256,7 +256,7 @@ fn write_views(
             path: song.path.clone(),
             link: false,
         };
-        qean_pipeline::view::write_page(&page, &[dance], Some(&music), &g.name)?;
+        qean_pipeline::view::write_page(&page, &[dance], Some(&music), &g.name, false)?;
         println!("  {}", page.display());
     }
     Ok(())

@@ -32,6 +32,9 @@ pub struct ViewArgs {
     /// Leading frames of each dance that are its seed (marked on the timeline).
     #[arg(long, default_value_t = 0)]
     pub seed_frames: usize,
+    /// Draw the dances at one place, overlaid (pose against pose), instead of side by side.
+    #[arg(long)]
+    pub overlay: bool,
     /// Link the music (a path relative to the page) instead of embedding it: for large files.
     #[arg(long, requires = "music")]
     pub link_music: bool,
@@ -72,7 +75,7 @@ pub fn view(a: ViewArgs) -> anyhow::Result<()> {
         1 => dances[0].label.clone(),
         n => format!("{n} dances"),
     };
-    write_page(&a.out, &dances, music.as_ref(), &title)?;
+    write_page(&a.out, &dances, music.as_ref(), &title, a.overlay)?;
     let frames: Vec<String> = dances
         .iter()
         .map(|d| (d.joints.len() / 24).to_string())
