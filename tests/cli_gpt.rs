@@ -48,6 +48,13 @@ fn train(config: &str, data: &Path, run: &Path, sets: &[String], resume: bool) -
     run_ok(&mut c)
 }
 
+/// A small tiny-preset VQ-VAE (`VQ_SMALL`) trained for `steps` at batch 4: the frozen tokenizer of a GPT.
+fn train_small_vq(data: &Path, run: &Path, steps: u64) {
+    let mut sets: Vec<String> = VQ_SMALL.iter().map(|s| s.to_string()).collect();
+    sets.extend([format!("train.steps={steps}"), "train.batch_size=4".into()]);
+    train("control/vqvae_tiny.toml", data, run, &sets, false);
+}
+
 fn named(checkpoint: &Path, prefix: &str) -> Vec<qean_models::params::NamedParam> {
     let ck = qean_train::checkpoint::resolve(checkpoint).unwrap();
     ck.named_parameters(&burn::tensor::Device::flex())
@@ -62,9 +69,7 @@ fn tiny_vq_gpt_trains_resumes_and_dances() {
     let dir = tempfile::tempdir().unwrap();
     let data = dataset(dir.path());
     let vq = dir.path().join("vq");
-    let mut sets: Vec<String> = VQ_SMALL.iter().map(|s| s.to_string()).collect();
-    sets.extend(["train.steps=4".into(), "train.batch_size=4".into()]);
-    train("control/vqvae_tiny.toml", &data, &vq, &sets, false);
+    train_small_vq(&data, &vq, 4);
 
     let gpt_sets = |steps: u64| -> Vec<String> {
         let mut s: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
@@ -284,9 +289,7 @@ fn genre_stage_trains_resumes_exactly_and_steers_sampling() {
     let dir = tempfile::tempdir().unwrap();
     let data = dataset(dir.path());
     let vq = dir.path().join("vq");
-    let mut sets: Vec<String> = VQ_SMALL.iter().map(|s| s.to_string()).collect();
-    sets.extend(["train.steps=2".into(), "train.batch_size=4".into()]);
-    train("control/vqvae_tiny.toml", &data, &vq, &sets, false);
+    train_small_vq(&data, &vq, 2);
     let gpt = dir.path().join("gpt");
     let mut sets: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
     sets.extend([
@@ -492,9 +495,7 @@ fn text_steps_alternate_with_music_steps_and_leave_the_idle_base_alone() {
     let dir = tempfile::tempdir().unwrap();
     let data = dataset(dir.path());
     let vq = dir.path().join("vq");
-    let mut sets: Vec<String> = VQ_SMALL.iter().map(|s| s.to_string()).collect();
-    sets.extend(["train.steps=2".into(), "train.batch_size=4".into()]);
-    train("control/vqvae_tiny.toml", &data, &vq, &sets, false);
+    train_small_vq(&data, &vq, 2);
     let gpt_sets = |steps: u64| -> Vec<String> {
         let mut s: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
         s.extend([

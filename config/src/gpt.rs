@@ -105,6 +105,38 @@ impl GptConfig {
         }
     }
 
+    /// The sizes that fix a GPT's parameters, named by [`GptConfig::SHAPE_FIELDS`]: a checkpoint to resume
+    /// or a frozen GPT to build on must have the same.
+    pub fn shape(
+        &self,
+    ) -> (
+        usize,
+        usize,
+        usize,
+        usize,
+        usize,
+        usize,
+        usize,
+        MLayout,
+        usize,
+    ) {
+        (
+            self.codes,
+            self.rate,
+            self.hidden,
+            self.heads,
+            self.base_layers,
+            self.head_layers,
+            self.window,
+            self.m_layout,
+            self.text_dim,
+        )
+    }
+
+    /// The names of [`GptConfig::shape`]'s values, in order.
+    pub const SHAPE_FIELDS: &'static str =
+        "codes, rate, hidden, heads, base_layers, head_layers, window, m_layout, text_dim";
+
     /// Values no GPT can use, as one message.
     pub fn validate(&self) -> Result<(), String> {
         if self.hidden == 0 || self.heads == 0 || !self.hidden.is_multiple_of(self.heads) {

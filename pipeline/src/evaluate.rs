@@ -222,6 +222,26 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
     })
 }
 
+/// Writes a report as `STEM.json` (pretty, newline-terminated) and `STEM.md` under `R/eval/step-N[-TAG]/`
+/// (the VQ-VAE, classifier and control-test reports); returns that directory.
+pub(crate) fn write_eval_files<T: serde::Serialize>(
+    req: &RunEvalRequest,
+    step: u64,
+    stem: &str,
+    report: &T,
+    md: &str,
+) -> Result<PathBuf> {
+    let out_dir = req
+        .run
+        .join("eval")
+        .join(qean_eval::curves::eval_dir_name(step, req.tag.as_deref()));
+    std::fs::create_dir_all(&out_dir).map_err(|e| qean_io::Error::io(&out_dir, e))?;
+    let json = serde_json::to_string_pretty(report).expect("plain data") + "\n";
+    qean_io::fsutil::atomic_write(&out_dir.join(format!("{stem}.json")), json.as_bytes())?;
+    qean_io::fsutil::atomic_write(&out_dir.join(format!("{stem}.md")), md.as_bytes())?;
+    Ok(out_dir)
+}
+
 /// `step-N`, or `step-N-TAG` for a tag of letters, digits, '-', '_' or '.'.
 fn eval_dir_name(step: u64, tag: Option<&str>) -> Result<String> {
     if let Some(tag) = tag {

@@ -131,14 +131,7 @@ pub fn evaluate_clf(req: &RunEvalRequest) -> Result<(ClfEvaluation, String)> {
         confusion,
     };
     let md = markdown(&report);
-    let out_dir = req.run.join("eval").join(qean_eval::curves::eval_dir_name(
-        report.step,
-        req.tag.as_deref(),
-    ));
-    std::fs::create_dir_all(&out_dir).map_err(|e| qean_io::Error::io(&out_dir, e))?;
-    let json = serde_json::to_string_pretty(&report).expect("plain data") + "\n";
-    qean_io::fsutil::atomic_write(&out_dir.join("report.json"), json.as_bytes())?;
-    qean_io::fsutil::atomic_write(&out_dir.join("report.md"), md.as_bytes())?;
+    crate::evaluate::write_eval_files(req, report.step, "report", &report, &md)?;
     Ok((report, md))
 }
 

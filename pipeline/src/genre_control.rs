@@ -147,14 +147,7 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
         per_genre,
     };
     let md = markdown(&report);
-    let out_dir = req.run.join("eval").join(qean_eval::curves::eval_dir_name(
-        report.step,
-        req.tag.as_deref(),
-    ));
-    std::fs::create_dir_all(&out_dir).map_err(|e| qean_io::Error::io(&out_dir, e))?;
-    let json = serde_json::to_string_pretty(&report).expect("plain data") + "\n";
-    qean_io::fsutil::atomic_write(&out_dir.join("control.json"), json.as_bytes())?;
-    qean_io::fsutil::atomic_write(&out_dir.join("control.md"), md.as_bytes())?;
+    let out_dir = crate::evaluate::write_eval_files(req, report.step, "control", &report, &md)?;
     Ok((
         report,
         md + &format!("\nreport: {}\n", out_dir.join("control.md").display()),

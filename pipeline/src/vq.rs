@@ -173,14 +173,7 @@ pub fn evaluate_vq(req: &RunEvalRequest) -> Result<(VqEvaluation, String)> {
         seconds: started.elapsed().as_secs_f64(),
     };
     let md = markdown(&report);
-    let out_dir = req.run.join("eval").join(qean_eval::curves::eval_dir_name(
-        ck.state.step,
-        req.tag.as_deref(),
-    ));
-    let json = serde_json::to_string_pretty(&report).expect("plain data") + "\n";
-    std::fs::create_dir_all(&out_dir).map_err(|e| qean_io::Error::io(&out_dir, e))?;
-    qean_io::fsutil::atomic_write(&out_dir.join("report.json"), json.as_bytes())?;
-    qean_io::fsutil::atomic_write(&out_dir.join("report.md"), md.as_bytes())?;
+    crate::evaluate::write_eval_files(req, ck.state.step, "report", &report, &md)?;
     Ok((report, md))
 }
 

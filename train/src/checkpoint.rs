@@ -303,24 +303,11 @@ impl Checkpoint {
     /// The multi-modal control families' sizes: `[gpt]`, `[genre]`, `[vq]`.
     fn check_control_shapes(&self, config: &qean_config::RunConfig) -> Result<()> {
         if let (Some(a), Some(b)) = (&self.config.gpt, &config.gpt) {
-            let shape = |c: &qean_config::gpt::GptConfig| {
-                (
-                    c.codes,
-                    c.rate,
-                    c.hidden,
-                    c.heads,
-                    c.base_layers,
-                    c.head_layers,
-                    c.window,
-                    c.m_layout,
-                    c.text_dim,
-                )
-            };
             self.same_shape(
                 "GPT",
-                shape(a),
-                shape(b),
-                "codes, rate, hidden, heads, base_layers, head_layers, window, m_layout, text_dim",
+                a.shape(),
+                b.shape(),
+                qean_config::gpt::GptConfig::SHAPE_FIELDS,
             )?;
         }
         if let (Some(a), Some(b)) = (&self.config.genre, &config.genre) {

@@ -134,8 +134,8 @@ pub trait Family {
     /// Families trained by several optimisers in turn (the genre stage: generator, then discriminator) name
     /// each group's parameters. Every update then runs one backward pass and one Adam step per group, in
     /// order, on [`Family::group_loss`]; a group's step moves only its own parameters, and later groups see
-    /// the model the earlier ones updated. Default: none (one optimiser over every parameter, on
-    /// [`Family::loss`]).
+    /// the model the earlier ones updated. Called once per session, after the weights load (parameter ids
+    /// survive updates). Default: none (one optimiser over every parameter, on [`Family::loss`]).
     fn param_groups(&self, _model: &Self::Model) -> Vec<HashSet<ParamId>> {
         Vec::new()
     }
@@ -174,6 +174,31 @@ pub fn read_family_state(checkpoint: &Checkpoint) -> Result<Option<serde_json::V
     serde_json::from_str(&text)
         .map(Some)
         .map_err(|e| Error::at(&path, format!("malformed family state: {e}")))
+}
+
+/// A resumed stage must find the frozen run it was trained on: the weights hash saved under `key` in the
+/// resume checkpoint's family state equals `frozen`'s (`what`: "the VQ-VAE this GPT", …). No saved hash: fine.
+pub fn check_frozen_hash(
+    resume: Option<&Checkpoint>,
+    key: &str,
+    frozen: &Checkpoint,
+    what: &str,
+) -> Result<()> {
+    let Some(ck) = resume else {
+        return Ok(());
+    };
+    let saved = read_family_state(ck)?;
+    let hash = saved.as_ref().and_then(|s| s[key].as_str());
+    match hash.filter(|h| *h != frozen.state.params_hash) {
+        Some(h) => Err(Error::at(
+            &frozen.dir,
+            format!(
+                "not {what} was trained on (weights hash {} there, {h} when training began)",
+                frozen.state.params_hash
+            ),
+        )),
+        None => Ok(()),
+    }
 }
 
 /// The trainer's error for a weights file.

@@ -71,26 +71,14 @@ impl FrozenGpt {
                 ))
             }
         };
-        let shape = |c: &GptConfig| {
-            (
-                c.codes,
-                c.rate,
-                c.hidden,
-                c.heads,
-                c.base_layers,
-                c.head_layers,
-                c.window,
-                c.m_layout,
-                c.text_dim,
-            )
-        };
-        if shape(theirs) != shape(g) {
+        if theirs.shape() != g.shape() {
             return Err(Error::at(
                 &checkpoint.dir,
                 format!(
-                    "the GPT run is {:?}, this config's [gpt] is {:?} (codes, rate, hidden, heads, base_layers, head_layers, window, m_layout, text_dim)",
-                    shape(theirs),
-                    shape(g)
+                    "the GPT run is {:?}, this config's [gpt] is {:?} ({})",
+                    theirs.shape(),
+                    g.shape(),
+                    GptConfig::SHAPE_FIELDS
                 ),
             ));
         }
@@ -289,19 +277,12 @@ impl Family for GenreFamily {
             .map_err(|e| Error::msg(format!("codebook: {e:?}")))?;
         debug_assert_eq!(self.codebook.len(), k * dim);
         self.code_dim = dim;
-        if let Some(ck) = resume {
-            let saved = crate::family::read_family_state(ck)?;
-            let hash = saved.as_ref().and_then(|s| s["gpt_params_hash"].as_str());
-            if let Some(h) = hash.filter(|h| *h != frozen.checkpoint.state.params_hash) {
-                return Err(Error::at(
-                    &frozen.checkpoint.dir,
-                    format!(
-                        "not the GPT this genre stage was trained on (weights hash {} there, {h} when training began)",
-                        frozen.checkpoint.state.params_hash
-                    ),
-                ));
-            }
-        }
+        crate::family::check_frozen_hash(
+            resume,
+            "gpt_params_hash",
+            &frozen.checkpoint,
+            "the GPT this genre stage",
+        )?;
         tracing::info!(
             "genre control over the frozen GPT {} (step {})",
             frozen.checkpoint.dir.display(),

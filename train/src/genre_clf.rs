@@ -12,7 +12,7 @@ use qean_io::error::{Error, Result};
 use qean_models::control::genre_clf::GenreClassifier;
 use qean_models::tsmt::loss::masked_cross_entropy;
 use qean_motion::motion::{Layout, Motion};
-use qean_motion::pos72::{joints_to_pos72, Pos72Options, POS72};
+use qean_motion::pos72::{Pos72Options, POS72};
 
 use crate::family::{Family, StepContext};
 
@@ -36,13 +36,7 @@ pub fn genre_of(name: &str) -> Option<usize> {
 
 /// pos72 rows (f32, default options) of a motion.
 pub fn pos72_rows(motion: &Motion) -> Vec<f32> {
-    joints_to_pos72(
-        &motion.joints(qean_motion::FkRoot::Smpl),
-        &Pos72Options::default(),
-    )
-    .into_iter()
-    .map(|v| v as f32)
-    .collect()
+    crate::vqvae::pos72_rows(motion, &Pos72Options::default())
 }
 
 /// Mean cross-entropy of logits [B, 10] against labels.

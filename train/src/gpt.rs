@@ -366,19 +366,12 @@ impl Family for GptFamily {
             .ok_or_else(|| Error::msg("model.arch = \"gpt\" needs a [gpt] table"))?;
         g.validate().map_err(Error::msg)?;
         let vq = FrozenVq::load(g)?;
-        if let Some(ck) = resume {
-            let saved = crate::family::read_family_state(ck)?;
-            let hash = saved.as_ref().and_then(|s| s["vqvae_params_hash"].as_str());
-            if let Some(h) = hash.filter(|h| *h != vq.checkpoint.state.params_hash) {
-                return Err(Error::at(
-                    &vq.checkpoint.dir,
-                    format!(
-                        "not the VQ-VAE this GPT was trained on (weights hash {} there, {h} when training began)",
-                        &vq.checkpoint.state.params_hash
-                    ),
-                ));
-            }
-        }
+        crate::family::check_frozen_hash(
+            resume,
+            "vqvae_params_hash",
+            &vq.checkpoint,
+            "the VQ-VAE this GPT",
+        )?;
         tracing::info!(
             "tokens from the frozen VQ-VAE {} (step {})",
             vq.checkpoint.dir.display(),

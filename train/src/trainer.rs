@@ -212,7 +212,8 @@ struct Session<'f, F: Family> {
     device: Device,
     plain: Device,
     model: F::Model,
-    /// One optimiser per parameter group (one for most families).
+    /// The family's parameter groups (empty: one group of every parameter) and one optimiser per group.
+    groups: Vec<HashSet<ParamId>>,
     optims: Vec<ModuleOptimizer>,
     /// The last update's loss of every optimiser group (families with several).
     group_losses: Vec<f64>,
@@ -511,12 +512,16 @@ impl<'f, F: Family> Session<'f, F> {
         // Model, optimiser and stream: fresh, or exactly as the checkpoint left them.
         device.seed(seed);
         let mut model = family.init(&config, &device);
-        let groups = family.param_groups(&model).len().max(1);
-        let mut optims: Vec<ModuleOptimizer> = (0..groups).map(|_| adam(&config)).collect();
+        if let Some(ck) = resume {
+            model = family::load_weights(model, &ck.dir.join(checkpoint::MODEL_FILE))?;
+        }
+        // Parameter ids survive every update, so the groups are found once.
+        let groups = family.param_groups(&model);
+        let mut optims: Vec<ModuleOptimizer> =
+            (0..groups.len().max(1)).map(|_| adam(&config)).collect();
         let (step, sampler, last_loss, best, elapsed_before) = match resume {
             None => (0, WindowSampler::new(seed, &train_set), None, None, 0.0),
             Some(ck) => {
-                model = family::load_weights(model, &ck.dir.join(checkpoint::MODEL_FILE))?;
                 for (g, optim) in optims.iter_mut().enumerate() {
                     let opt_path = ck.dir.join(optimizer_file(g));
                     *optim = adam(&config).load(&opt_path).map_err(|e| {
@@ -557,6 +562,7 @@ impl<'f, F: Family> Session<'f, F> {
             device,
             plain,
             model,
+            groups,
             optims,
             group_losses: Vec::new(),
             sampler,
@@ -597,14 +603,13 @@ fn outcome<F: Family>(
 /// group 0's loss, or the first non-finite one).
 fn update<F: Family>(s: &mut Session<F>, inputs: F::Inputs, lr: f64) -> (F::Model, f64) {
     let clip = s.config.optim.grad_clip_norm;
-    let groups = s.family.param_groups(&s.model);
-    if groups.is_empty() {
+    if s.groups.is_empty() {
         let loss = s.family.loss(&s.model, inputs, &s.config);
         return apply_update(s.model.clone(), &mut s.optims[0], loss, lr, clip);
     }
     let mut model = s.model.clone();
-    let mut values = Vec::with_capacity(groups.len());
-    for (g, keep) in groups.iter().enumerate() {
+    let mut values = Vec::with_capacity(s.groups.len());
+    for (g, keep) in s.groups.iter().enumerate() {
         let loss = s.family.group_loss(&model, &inputs, g, &s.config);
         let (next, value) = apply_group_update(model, &mut s.optims[g], loss, keep, lr, clip);
         model = next;

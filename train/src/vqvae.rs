@@ -52,9 +52,14 @@ pub fn pos72_options(c: &VqConfig) -> Pos72Options {
     }
 }
 
-/// pos72 rows (f32) of a motion: FK joints with the `smpl` root (SPEC §13.2.1).
+/// pos72 rows (f32) of a motion with the `[vq]` table's options.
 pub fn motion_pos72(motion: &Motion, c: &VqConfig) -> Vec<f32> {
-    joints_to_pos72(&motion.joints(FkRoot::Smpl), &pos72_options(c))
+    pos72_rows(motion, &pos72_options(c))
+}
+
+/// pos72 rows (f32) of a motion: FK joints with the `smpl` root (SPEC §13.2.1).
+pub fn pos72_rows(motion: &Motion, opts: &Pos72Options) -> Vec<f32> {
+    joints_to_pos72(&motion.joints(FkRoot::Smpl), opts)
         .into_iter()
         .map(|v| v as f32)
         .collect()
