@@ -54,8 +54,7 @@ pub struct ControlReport {
 
 /// The genre of a music ID (`mBR0` → BR).
 pub(crate) fn music_genre(music: &str) -> Option<usize> {
-    let code = music.strip_prefix('m')?.get(..2)?;
-    GENRES.iter().position(|g| *g == code)
+    qean_train::genre_clf::genre_index(music.strip_prefix('m')?)
 }
 
 /// Runs the control test; writes the report beside the run's evaluations.

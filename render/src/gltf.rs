@@ -422,13 +422,6 @@ mod tests {
         let [x, y, z, w] = q;
         // v + 2w(u × v) + 2u × (u × v), u = (x, y, z).
         let u = [x, y, z];
-        let cross = |a: [f64; 3], b: [f64; 3]| {
-            [
-                a[1] * b[2] - a[2] * b[1],
-                a[2] * b[0] - a[0] * b[2],
-                a[0] * b[1] - a[1] * b[0],
-            ]
-        };
         let t = cross(u, v).map(|c| 2.0 * c);
         let ut = cross(u, t);
         std::array::from_fn(|k| v[k] + w * t[k] + ut[k])

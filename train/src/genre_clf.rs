@@ -30,7 +30,12 @@ pub fn clf_of(config: &RunConfig) -> &GenreClfConfig {
 
 /// The genre index of an AIST++ name (`gBR_…` → 0), if it has one.
 pub fn genre_of(name: &str) -> Option<usize> {
-    let code = name.strip_prefix('g')?.get(..2)?;
+    genre_index(name.strip_prefix('g')?)
+}
+
+/// The genre whose two-letter AIST++ code starts `code` (`BR…` → 0).
+pub fn genre_index(code: &str) -> Option<usize> {
+    let code = code.get(..2)?;
     GENRES.iter().position(|g| *g == code)
 }
 
