@@ -136,6 +136,7 @@ pub fn run(
             render: true,
             run: (method == EditMethod::Transformer).then(|| run_dir.to_path_buf()),
             genre: None,
+            theta: None,
         })?;
         let anchors: std::collections::BTreeSet<usize> = report
             .ranges

@@ -58,6 +58,93 @@ fn benchmark_table_on_a_synthetic_dataset() {
         .any(|c| c.as_str().unwrap().starts_with("(ii)")));
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("| even / linear+SLERP |") && md.contains("Runtime:"));
+    bezier_training_means_drive_edits(dir.path(), &out);
+}
+
+/// The benchmark's Bézier training means (one file per N) are what `qean edit --method bezier --theta`
+/// draws with (SPEC §12.7 "bezier uses the trained mean θ").
+fn bezier_training_means_drive_edits(dir: &std::path::Path, bench: &std::path::Path) {
+    for n in [3, 9] {
+        let f: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(bench.join(format!("bezier_even_N{n}.json"))).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(f["format"], "qean-bezier-theta");
+        assert_eq!(f["n"], n);
+        assert_eq!(f["theta"].as_array().unwrap().len(), 75);
+        assert!(f["sequences"].as_u64().unwrap() > 0);
+    }
+    let theta = bench.join("bezier_even_N3.json");
+    let excerpt = shared().join("aistpp/motions/softcat477_sample_with_scaling.pkl");
+    let edits = dir.join("edits.json");
+    std::fs::write(&edits, r#"{"regenerate": [[10, 110]], "keep": "grid:3"}"#).unwrap();
+    let edit = |out: &str, extra: &[&str]| {
+        let mut c = qean();
+        c.arg("edit")
+            .arg("--motion")
+            .arg(&excerpt)
+            .arg("--edits")
+            .arg(&edits)
+            .args(["--bpm", "120", "--out"])
+            .arg(dir.join(out))
+            .args(extra);
+        c
+    };
+    let t = theta.to_str().unwrap();
+    let own = dir.join("own.pkl");
+    run_ok(&mut edit("own.pkl", &["--method", "bezier"]));
+    run_ok(&mut edit("mean.pkl", &["--method", "bezier", "--theta", t]));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("mean.report.json")).unwrap())
+            .unwrap();
+    let source = report["theta_source"].as_str().unwrap();
+    assert!(
+        source.starts_with("training mean of") && source.contains("N = 3"),
+        "{source}"
+    );
+    let (a, b) = (
+        qean_motion::Motion::read_pkl(&own).unwrap(),
+        qean_motion::Motion::read_pkl(&dir.join("mean.pkl")).unwrap(),
+    );
+    let input = qean_motion::Motion::read_pkl(&excerpt).unwrap();
+    assert_ne!(
+        a.poses[50 * 72..51 * 72],
+        b.poses[50 * 72..51 * 72],
+        "another θ, another curve"
+    );
+    assert_eq!(b.poses[..10 * 72], input.poses[..10 * 72]);
+    assert_eq!(b.poses[111 * 72..], input.poses[111 * 72..]);
+    // A mean fitted under other settings, or with another method: one line, nothing written.
+    assert_clean_failure(
+        &mut edit(
+            "chord.pkl",
+            &[
+                "--method",
+                "bezier",
+                "--theta",
+                t,
+                "--set",
+                "inbetween.bezier_param=chord",
+            ],
+        ),
+        "bezier_param = handles",
+    );
+    assert_clean_failure(
+        &mut edit("slerp.pkl", &["--method", "slerp", "--theta", t]),
+        "--method bezier",
+    );
+    let broken = dir.join("broken.json");
+    std::fs::write(&broken, r#"{"format": "qean-bezier-theta"}"#).unwrap();
+    assert_clean_failure(
+        &mut edit(
+            "broken.pkl",
+            &["--method", "bezier", "--theta", broken.to_str().unwrap()],
+        ),
+        "broken.json",
+    );
+    for gone in ["chord.pkl", "slerp.pkl", "broken.pkl"] {
+        assert!(!dir.join(gone).exists(), "{gone}");
+    }
 }
 
 #[test]

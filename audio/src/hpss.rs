@@ -172,7 +172,7 @@ mod tests {
             .iter()
             .zip(&h)
             .all(|(a, b)| (a + b - 1.0).abs() < 1e-15 && *a >= 0.0 && *b >= 0.0));
-        assert!(p.iter().any(|&a| a == 0.5));
+        assert!(p.contains(&0.5));
     }
 
     #[test]

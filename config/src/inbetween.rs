@@ -158,6 +158,9 @@ pub struct InbetweenConfig {
     /// Interior keys drawn uniformly among the measure's frames (its ends stay keys) instead of even ones
     /// (SPEC §12.4c "or random keys": for edits that keep hand-picked frames).
     pub random_keys: bool,
+    /// Train on Ballet Jazz too (SPEC §12.1 `include_jb`): Lin drops it (its drums stem is silent), leaving
+    /// 866 training sequences and nine genres; with it the genre variant's one-hot has ten (JB last).
+    pub include_jb: bool,
     /// The drums stem of `cross_drum` / `merged_drum`.
     pub drums: DrumSource,
     pub music_norm: MusicNorm,
@@ -203,6 +206,7 @@ impl InbetweenConfig {
             train_keys: 5,
             mixed_keys: false,
             random_keys: false,
+            include_jb: false,
             drums: DrumSource::Files,
             music_norm: MusicNorm::Standardize,
             mlp_act: MlpAct::Gelu,

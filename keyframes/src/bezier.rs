@@ -172,6 +172,115 @@ impl MeanTheta {
     }
 }
 
+/// A training mean θ on disk (`bezier_<strategy>_N<n>.json`, written by `qean eval --task inbetween`, read
+/// by `qean edit --method bezier --theta`): the settings it was fitted under and θ per D_euler channel.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThetaFile {
+    /// Always "qean-bezier-theta".
+    pub format: String,
+    pub version: u32,
+    /// The keyframe strategy of the training pairs ("even", "dp", …) and keys per measure.
+    pub strategy: String,
+    pub n: usize,
+    pub param: BezierParam,
+    pub average: BezierAverage,
+    pub euler_order: EulerOrder,
+    pub euler_unwrap: bool,
+    /// Training dances the mean was taken over.
+    pub sequences: usize,
+    /// θ = (θ1, θ2) of each of the 75 channels (72 Euler angles, then the translation), or null where no
+    /// training pair fixed it (such channels draw straight lines).
+    pub theta: Vec<Option<[f64; 2]>>,
+}
+
+impl ThetaFile {
+    pub const FORMAT: &'static str = "qean-bezier-theta";
+
+    pub fn new(
+        mean: &MeanTheta,
+        settings: &BezierSettings,
+        strategy: &str,
+        n: usize,
+        sequences: usize,
+    ) -> Self {
+        ThetaFile {
+            format: Self::FORMAT.into(),
+            version: 1,
+            strategy: strategy.into(),
+            n,
+            param: settings.param,
+            average: settings.average,
+            euler_order: settings.order,
+            euler_unwrap: settings.unwrap,
+            sequences,
+            theta: (0..75).map(|c| mean.theta(c)).collect(),
+        }
+    }
+
+    /// The mean θ for drawing under `settings`, or why this file does not fit them (another
+    /// parameterisation, Euler order or unwrapping gives θ another meaning).
+    pub fn mean_for(&self, settings: &BezierSettings) -> Result<MeanTheta, String> {
+        if self.format != Self::FORMAT || self.version != 1 {
+            return Err(format!(
+                "not a Bézier θ file (format '{}' version {}; expected '{}' version 1)",
+                self.format,
+                self.version,
+                Self::FORMAT
+            ));
+        }
+        if self.theta.len() != 75 {
+            return Err(format!(
+                "theta has {} channels; expected 75 (24 Euler triples + translation)",
+                self.theta.len()
+            ));
+        }
+        if let Some(c) = self
+            .theta
+            .iter()
+            .position(|t| t.is_some_and(|t| !t.iter().all(|v| v.is_finite())))
+        {
+            return Err(format!("theta of channel {c} is not finite"));
+        }
+        let checks = [
+            (
+                "inbetween.bezier_param",
+                serde_name(&self.param),
+                serde_name(&settings.param),
+            ),
+            (
+                "keyframes.euler_order",
+                serde_name(&self.euler_order),
+                serde_name(&settings.order),
+            ),
+            (
+                "keyframes.euler_unwrap",
+                self.euler_unwrap.to_string(),
+                settings.unwrap.to_string(),
+            ),
+        ];
+        if let Some((key, file, now)) = checks.into_iter().find(|(_, a, b)| a != b) {
+            return Err(format!(
+                "fitted with {key} = {file} but this edit uses {now}; pass --set {key}={file} or refit"
+            ));
+        }
+        let sums = self
+            .theta
+            .iter()
+            .map(|t| t.map_or([0.0; 3], |t| [t[0], t[1], 1.0]))
+            .collect();
+        Ok(MeanTheta { sums })
+    }
+}
+
+/// How a setting's value is written in TOML / `--set`.
+fn serde_name<T: Serialize>(v: &T) -> String {
+    match serde_json::to_value(v) {
+        Ok(serde_json::Value::String(s)) => s,
+        other => format!("{other:?}"),
+    }
+}
+
 /// Where each pair's θ comes from.
 pub enum ThetaSource<'a> {
     /// The training mean (channels without one draw straight lines).

@@ -246,3 +246,48 @@ fn bezier_training_mean_is_deterministic_and_keys_stay_exact() {
         assert_eq!(out.trans[k * 3..(k + 1) * 3], m.trans[k * 3..(k + 1) * 3]);
     }
 }
+
+#[test]
+fn a_saved_training_mean_draws_the_same_curves_and_refuses_other_settings() {
+    use qean_keyframes::bezier::{
+        inbetween, BezierParam, BezierSettings, MeanTheta, ThetaFile, ThetaSource,
+    };
+    use qean_keyframes::euler::EulerOrder;
+    let m = excerpt();
+    let keys = [0, 30, 60, 90, 120];
+    let settings = BezierSettings::default();
+    let mut mean = MeanTheta::default();
+    mean.add(&m, &keys, &settings);
+    mean.add(&m, &[0, 40, 80, 120], &settings);
+    let file = ThetaFile::new(&mean, &settings, "even", 5, 2);
+    let text = serde_json::to_string_pretty(&file).unwrap();
+    let back: ThetaFile = serde_json::from_str(&text).unwrap();
+    assert_eq!(back, file);
+    let loaded = back.mean_for(&settings).unwrap();
+    let direct = inbetween(&m, &keys, ThetaSource::Mean(&mean), &settings);
+    let saved = inbetween(&m, &keys, ThetaSource::Mean(&loaded), &settings);
+    assert_eq!(direct, saved, "θ survives the JSON round trip bit for bit");
+    let chord = BezierSettings {
+        param: BezierParam::Chord,
+        ..settings
+    };
+    let e = back.mean_for(&chord).unwrap_err();
+    assert!(e.contains("inbetween.bezier_param = handles"), "{e}");
+    let yxz = BezierSettings {
+        order: EulerOrder::YXZ,
+        ..settings
+    };
+    assert!(back
+        .mean_for(&yxz)
+        .unwrap_err()
+        .contains("keyframes.euler_order = XYZ"));
+    let mut short = back.clone();
+    short.theta.pop();
+    assert!(short
+        .mean_for(&settings)
+        .unwrap_err()
+        .contains("74 channels"));
+    let mut nan = back;
+    nan.theta[3] = Some([f64::NAN, 0.0]);
+    assert!(nan.mean_for(&settings).unwrap_err().contains("channel 3"));
+}

@@ -26,12 +26,21 @@ use qean_config::inbetween::{Decoder, InbetweenConfig, MergeAxis, Variant};
 pub const MOTION_DIM: usize = 225;
 /// Music feature width: MFCC 1..20, envelope, onset peaks (columns [1..20, 0, 33] of the 35-D feature).
 pub const MUSIC_DIM: usize = 22;
-/// Genres without Ballet Jazz, in §1.1 order BR, PO, LO, MH, LH, HO, WA, KR, JS.
-pub const GENRES: [&str; 9] = ["BR", "PO", "LO", "MH", "LH", "HO", "WA", "KR", "JS"];
+/// Genres in §1.1 order BR, PO, LO, MH, LH, HO, WA, KR, JS, JB; Lin's one-hot drops the last.
+pub const GENRES: [&str; 10] = ["BR", "PO", "LO", "MH", "LH", "HO", "WA", "KR", "JS", "JB"];
 
-/// The one-hot index of a genre code (`None` for JB and unknown codes).
-pub fn genre_index(code: &str) -> Option<usize> {
-    GENRES.iter().position(|g| *g == code)
+/// The genres of the one-hot: nine, or ten with `include_jb`.
+pub fn genres(c: &InbetweenConfig) -> &'static [&'static str] {
+    if c.include_jb {
+        &GENRES
+    } else {
+        &GENRES[..9]
+    }
+}
+
+/// The one-hot index of a genre code (`None` for unknown codes, and JB unless `include_jb`).
+pub fn genre_index(c: &InbetweenConfig, code: &str) -> Option<usize> {
+    genres(c).iter().position(|g| *g == code)
 }
 
 /// The 22 music columns of a 35-D feature row: MFCC 1..20 (columns 1..=20), envelope (0), onset peaks (33).
@@ -173,7 +182,7 @@ impl MusicEncoder {
 pub struct Conditioning {
     /// [B, T, 22] music rows aligned with the frames (cross and merged variants).
     pub music: Option<Tensor<3>>,
-    /// [B, 9] genre one-hots (genre variant).
+    /// [B, 9 | 10] genre one-hots (genre variant).
     pub genre: Option<Tensor<2>>,
     /// Valid frames per row (the rest is padding); `None`: every frame is valid.
     pub lengths: Option<Vec<usize>>,
@@ -193,6 +202,8 @@ pub struct Inbetweener {
     pub output: Linear,
     pub dropout: Dropout,
     genre: bool,
+    /// Width of the genre one-hot (9, or 10 with `include_jb`).
+    genres: usize,
     merged: bool,
     /// `merge_axis = time`: motion and music tokens side by side in time.
     merge_time: bool,
@@ -207,7 +218,7 @@ impl Inbetweener {
         let merged = matches!(v, Variant::MergedFull | Variant::MergedDrum);
         let merge_time = merged && c.merge_axis == MergeAxis::Time;
         let input = match v {
-            Variant::Genre => MOTION_DIM + GENRES.len(),
+            Variant::Genre => MOTION_DIM + genres(c).len(),
             _ if merged && !merge_time => MOTION_DIM + c.hidden,
             _ => MOTION_DIM,
         };
@@ -230,6 +241,7 @@ impl Inbetweener {
             output: truncated_normal_dense(c.hidden, MOTION_DIM, 0.02, device),
             dropout: DropoutConfig::new(c.dropout).init(),
             genre: v == Variant::Genre,
+            genres: genres(c).len(),
             merged,
             merge_time,
             cross: v.is_cross(),
@@ -262,7 +274,7 @@ impl Inbetweener {
                 .genre
                 .clone()
                 .expect("the genre in-betweener needs a genre");
-            let g = g.unsqueeze_dim::<3>(1).expand([b, t, GENRES.len()]);
+            let g = g.unsqueeze_dim::<3>(1).expand([b, t, self.genres]);
             Tensor::cat(vec![base.clone(), g], 2)
         } else if self.merged && !self.merge_time {
             Tensor::cat(vec![base.clone(), memory.clone().expect("music")], 2)
@@ -317,7 +329,7 @@ pub fn inbetween_params(c: &InbetweenConfig) -> usize {
         0
     };
     let input = match v {
-        Variant::Genre => dense(MOTION_DIM + GENRES.len(), d),
+        Variant::Genre => dense(MOTION_DIM + genres(c).len(), d),
         Variant::MergedFull | Variant::MergedDrum if c.merge_axis == MergeAxis::Features => {
             dense(MOTION_DIM + d, d)
         }
@@ -388,6 +400,14 @@ mod tests {
         };
         assert_eq!(count(&time), 198_497 - 64 * 64);
         assert_eq!(inbetween_params(&time), count(&time));
+        // include_jb: a tenth genre, one more input row of the merge Dense (d more weights).
+        let jb = InbetweenConfig {
+            variant: Variant::Genre,
+            include_jb: true,
+            ..InbetweenConfig::tiny()
+        };
+        assert_eq!(count(&jb), 111_585 + 64);
+        assert_eq!(inbetween_params(&jb), count(&jb));
     }
 
     fn inputs(variant: Variant, b: usize, t: usize, device: &Device) -> (Tensor<3>, Conditioning) {
@@ -465,9 +485,17 @@ mod tests {
 
     #[test]
     fn genre_order_and_music_columns() {
-        assert_eq!(genre_index("BR"), Some(0));
-        assert_eq!(genre_index("JS"), Some(8));
-        assert_eq!(genre_index("JB"), None);
+        let lin = InbetweenConfig::tiny();
+        assert_eq!(genre_index(&lin, "BR"), Some(0));
+        assert_eq!(genre_index(&lin, "JS"), Some(8));
+        assert_eq!(genre_index(&lin, "JB"), None);
+        let ten = InbetweenConfig {
+            include_jb: true,
+            ..lin
+        };
+        assert_eq!(genre_index(&ten, "JS"), Some(8));
+        assert_eq!(genre_index(&ten, "JB"), Some(9));
+        assert_eq!(genre_index(&ten, "XX"), None);
         let row: Vec<f32> = (0..35).map(|i| i as f32).collect();
         let m = music_columns(&row);
         assert_eq!(m[0], 1.0);

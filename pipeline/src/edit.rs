@@ -5,7 +5,7 @@
 use crate::inbetweener::{rebuild, Context, Segment, Trained};
 use crate::keyframes::{select_keyframes_of, KeyframesRequest};
 use crate::{Error, Result};
-use qean_keyframes::bezier::{BezierSettings, MeanTheta};
+use qean_keyframes::bezier::{BezierSettings, MeanTheta, ThetaFile};
 use qean_keyframes::edit::{apply, EditSpec, Keep, Method, RangeReport};
 use qean_keyframes::even::even_keys;
 use qean_keyframes::select::Strategy;
@@ -42,6 +42,9 @@ pub struct EditRequest {
     pub run: Option<PathBuf>,
     /// The dance's genre code for the genre in-betweener (default: from an AIST++ name).
     pub genre: Option<String>,
+    /// A Bézier training mean (`bezier_<strategy>_N<n>.json` of `qean eval --task inbetween`); without
+    /// it `bezier` fits θ on the input's own key pairs.
+    pub theta: Option<PathBuf>,
 }
 
 /// The report written beside the output.
@@ -167,6 +170,32 @@ fn own_theta(
     )
 }
 
+/// The Bézier θ of an edit: the training mean of `--theta` (SPEC §12.7), else the input's own
+/// ([`own_theta`]).
+fn bezier_theta(
+    req: &EditRequest,
+    motion: &Motion,
+    spec: &EditSpec,
+    kept: &[usize],
+) -> Result<(MeanTheta, String)> {
+    let Some(path) = &req.theta else {
+        let (mean, source) = own_theta(motion, spec, kept, &req.bezier);
+        return Ok((mean, source + " (no --theta training mean given)"));
+    };
+    let bad = |e: String| Error::Invalid(format!("{}: {e}", path.display()));
+    let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    let file: ThetaFile = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
+    let mean = file.mean_for(&req.bezier).map_err(bad)?;
+    let source = format!(
+        "training mean of {} dances ({} keys, N = {}) from {}",
+        file.sequences,
+        file.strategy,
+        file.n,
+        path.display()
+    );
+    Ok((mean, source))
+}
+
 /// The fastest joint's largest step between frames (m per frame) in frames [a, b].
 fn peak_step(joints: &[[f64; 3]], a: usize, b: usize) -> f64 {
     let mut worst: f64 = 0.0;
@@ -262,6 +291,11 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
     req.options
         .validate()
         .map_err(|e| Error::Invalid(format!("keyframe options: {e}")))?;
+    if req.theta.is_some() && req.method != EditMethod::Bezier {
+        return Err(Error::Invalid(
+            "--theta (a Bézier training mean) goes with --method bezier".into(),
+        ));
+    }
     let motion = read_motion(&req.motion)?;
     let text = std::fs::read_to_string(&req.edits)
         .map_err(|e| Error::Invalid(format!("{}: cannot read: {e}", req.edits.display())))?;
@@ -290,7 +324,7 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
     let (theta, theta_source) = match req.method {
         EditMethod::Slerp | EditMethod::Transformer => (None, None),
         EditMethod::Bezier => {
-            let (t, s) = own_theta(&motion, &spec, &kept, &req.bezier);
+            let (t, s) = bezier_theta(req, &motion, &spec, &kept)?;
             (Some(t), Some(s))
         }
     };

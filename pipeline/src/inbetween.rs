@@ -10,14 +10,14 @@ use qean_eval::config::{EvalConfig, MusicBeatSource};
 use qean_eval::dirs::music_beats;
 use qean_eval::positions::Sequence;
 use qean_eval::run_report::frames_of;
-use qean_keyframes::bezier::{self, BezierSettings, MeanTheta, ThetaSource};
+use qean_keyframes::bezier::{self, BezierSettings, MeanTheta, ThetaFile, ThetaSource};
 use qean_keyframes::mse::{mse, MseSpace};
 use qean_keyframes::select::Strategy;
 use qean_keyframes::{slerp, KeyframeOptions};
 use qean_motion::{FkRoot, Motion};
 use serde::Serialize;
 use std::collections::HashMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// How the frames between keys are rebuilt.
@@ -468,9 +468,27 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
     let json = serde_json::to_string_pretty(&report).expect("plain data") + "\n";
     qean_io::fsutil::atomic_dir(&req.out, |dir| {
         qean_io::fsutil::atomic_write(&dir.join("report.json"), json.as_bytes())?;
-        qean_io::fsutil::atomic_write(&dir.join("report.md"), md.as_bytes())
+        qean_io::fsutil::atomic_write(&dir.join("report.md"), md.as_bytes())?;
+        theta_files(dir, &means, req, train.as_ref())
     })?;
     Ok((report, md))
+}
+
+/// Each Bézier training mean as `bezier_<strategy>_N<n>.json`, for `qean edit --method bezier --theta`.
+fn theta_files(
+    dir: &Path,
+    means: &HashMap<(Strategy, usize), MeanTheta>,
+    req: &InbetweenRequest,
+    train: Option<&Loaded>,
+) -> qean_io::Result<()> {
+    let sequences = train.map_or(0, |t| t.names.len());
+    for (&(strategy, n), mean) in means {
+        let file = ThetaFile::new(mean, &req.bezier, strategy.name(), n, sequences);
+        let json = serde_json::to_string_pretty(&file).expect("plain data") + "\n";
+        let name = format!("bezier_{}_N{n}.json", strategy.name());
+        qean_io::fsutil::atomic_write(&dir.join(name), json.as_bytes())?;
+    }
+    Ok(())
 }
 
 /// The distinct row labels, in order of first appearance.

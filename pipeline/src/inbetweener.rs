@@ -6,7 +6,7 @@ use std::path::Path;
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_config::inbetween::{InbetweenConfig, Variant};
 use qean_models::inbetween::{
-    genre_index, music_columns, Conditioning, Inbetweener, MOTION_DIM, MUSIC_DIM,
+    genre_index, genres, music_columns, Conditioning, Inbetweener, MOTION_DIM, MUSIC_DIM,
 };
 use qean_motion::{Layout, Motion};
 use qean_train::checkpoint::{resolve, Checkpoint};
@@ -98,9 +98,10 @@ pub fn rebuild(
         )));
     }
     let genre = match (c.variant, ctx.genre) {
-        (Variant::Genre, Some(g)) => Some(genre_index(g).ok_or_else(|| {
+        (Variant::Genre, Some(g)) => Some(genre_index(c, g).ok_or_else(|| {
             Error::Invalid(format!(
-                "genre {g:?} is not one the genre in-betweener knows (BR PO LO MH LH HO WA KR JS)"
+                "genre {g:?} is not one the genre in-betweener knows ({})",
+                genres(c).join(" ")
             ))
         })?),
         (Variant::Genre, None) => {
@@ -143,9 +144,10 @@ pub fn rebuild(
         music: features
             .map(|_| Tensor::<3>::from_data(TensorData::new(music, [n, t, MUSIC_DIM]), &device)),
         genre: genre.map(|g| {
-            let mut v = vec![0f32; n * 9];
-            (0..n).for_each(|i| v[i * 9 + g] = 1.0);
-            Tensor::from_data(TensorData::new(v, [n, 9]), &device)
+            let width = genres(c).len();
+            let mut v = vec![0f32; n * width];
+            (0..n).for_each(|i| v[i * width + g] = 1.0);
+            Tensor::from_data(TensorData::new(v, [n, width]), &device)
         }),
         lengths: Some(lens.clone()),
     };

@@ -94,10 +94,13 @@ pub fn keyframes(a: KeyframesArgs) -> anyhow::Result<()> {
 --music) or a list of frames; \"edits\" set new poses (axis-angle, 24 joints) and optionally the root translation. \
 In each range the anchors are its ends, the kept frames and the edited frames; every other frame of the range is \
 regenerated (slerp: straight root path and shortest-arc joint turns; bezier: cubic curves per Euler channel with \
-the mean shape of the input's own key pairs). Frames outside the ranges are copied bit for bit. Writes OUT.pkl and \
+the mean shape of training dances (--theta, written by `qean eval --task inbetween`) or else of the input's own \
+key pairs; transformer: a trained in-betweener, --run). Frames outside the ranges are copied bit for bit. Writes OUT.pkl and \
 OUT.report.json (anchors and per-range error against the input); --render adds OUT.png and OUT.gif.",
     after_help = "Examples:\n  qean edit --motion dance.pkl --edits edits.json --method slerp --bpm 120 --out edited.pkl\n  \
-qean edit --motion dance.pkl --music song.wav --edits edits.json --method bezier --out edited.pkl --render"
+qean edit --motion dance.pkl --music song.wav --edits edits.json --method bezier --out edited.pkl --render\n  \
+qean eval --task inbetween --data data --keys 5 --methods bezier --out bench   # writes bench/bezier_even_N5.json\n  \
+qean edit --motion dance.pkl --edits edits.json --method bezier --theta bench/bezier_even_N5.json --out edited.pkl"
 )]
 pub struct EditArgs {
     /// The dance: an AIST++ .pkl or a model-layout .npy (frames, 225|219).
@@ -122,6 +125,10 @@ pub struct EditArgs {
     /// AIST++ name.
     #[arg(long)]
     pub genre: Option<String>,
+    /// The Bézier training mean for --method bezier (bezier_<strategy>_N<n>.json from `qean eval --task
+    /// inbetween`); default: fitted on the input's own key pairs.
+    #[arg(long)]
+    pub theta: Option<PathBuf>,
     /// Tempo for the measure grid of keep rules (else from the names or the music).
     #[arg(long)]
     pub bpm: Option<f64>,
@@ -157,6 +164,7 @@ pub fn edit(a: EditArgs) -> anyhow::Result<()> {
         },
         run: a.run.clone(),
         genre: a.genre.clone(),
+        theta: a.theta.clone(),
         bpm: a.bpm,
         options: settings.keyframes,
         bezier: settings.bezier,
@@ -172,6 +180,9 @@ pub fn edit(a: EditArgs) -> anyhow::Result<()> {
             r.range.1 - r.range.0 + 1 - r.anchors.len(),
             r.mse_rotmat
         );
+    }
+    if let Some(source) = &report.theta_source {
+        println!("Bézier θ: {source}");
     }
     println!(
         "wrote {} and {}",

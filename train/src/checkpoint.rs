@@ -250,13 +250,14 @@ impl Checkpoint {
                     c.max_len,
                     c.decoder,
                     c.merge_axis,
+                    c.include_jb && c.variant == qean_config::inbetween::Variant::Genre,
                 )
             };
             self.same_shape(
                 "in-betweener",
                 shape(a),
                 shape(b),
-                "variant, hidden, heads, ffn, layers, audio_layers, max_len, decoder, merge_axis",
+                "variant, hidden, heads, ffn, layers, audio_layers, max_len, decoder, merge_axis, include_jb (genre)",
             )?;
         }
         if let (Some(a), Some(b)) = (&self.config.genre_clf, &config.genre_clf) {

@@ -18,7 +18,7 @@ use qean_io::error::{Error, Result};
 use qean_keyframes::even::even_keys;
 use qean_keyframes::measure::{segments, Boundary, Rounding};
 use qean_models::inbetween::{
-    genre_index, music_columns, Conditioning, Inbetweener, MOTION_DIM, MUSIC_DIM,
+    genre_index, genres, music_columns, Conditioning, Inbetweener, MOTION_DIM, MUSIC_DIM,
 };
 use qean_motion::rotation::{axis_angle_to_matrix, matrix_to_quaternion, Mat3};
 use rand::{Rng, SeedableRng};
@@ -138,7 +138,7 @@ pub fn measure_windows(whole: SequenceSet, c: &InbetweenConfig) -> Result<Sequen
     let mut sequences = Vec::new();
     let (d, ad) = (whole.dim, whole.audio_dim);
     for seq in &whole.sequences {
-        if c.variant == Variant::Genre && seq.name.starts_with("gJB") {
+        if !c.include_jb && seq.name.starts_with("gJB") {
             continue;
         }
         let bpm = qean_aistpp::names::music_id_of(&seq.name)
@@ -303,13 +303,14 @@ pub fn tensors(batch: &Batch, c: &InbetweenConfig, seed: u64, device: &Device) -
         mask.extend((0..t).map(|f| if f < len { 1.0f32 } else { 0.0 }));
     }
     let genre = (c.variant == Variant::Genre).then(|| {
-        let mut g = vec![0f32; b * 9];
+        let width = genres(c).len();
+        let mut g = vec![0f32; b * width];
         for (i, n) in batch.names.iter().enumerate() {
-            if let Some(k) = n.get(1..3).and_then(genre_index) {
-                g[i * 9 + k] = 1.0;
+            if let Some(k) = n.get(1..3).and_then(|code| genre_index(c, code)) {
+                g[i * width + k] = 1.0;
             }
         }
-        Tensor::from_data(TensorData::new(g, [b, 9]), device)
+        Tensor::from_data(TensorData::new(g, [b, width]), device)
     });
     let tensor = |v: Vec<f32>, width: usize| {
         Tensor::<3>::from_data(TensorData::new(v, [b, t, width]), device)
