@@ -59,6 +59,7 @@ const ASSETS: &[Asset] = &[
     asset!("configs/inbetween/paper.toml"),
     asset!("configs/inbetween/tiny.toml"),
     asset!("configs/inbetween/tiny_motion.toml"),
+    asset!("configs/inbetween/tiny_motion_smooth.toml"),
     asset!("configs/control/vqvae_paper.toml"),
     asset!("configs/control/vqvae_tiny.toml"),
     asset!("configs/control/gpt_paper.toml"),
@@ -875,8 +876,8 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
         (VQ, "tiny motion VQ-VAE", "configs/control/vqvae_tiny.toml"),
         (
             INBETWEENER,
-            "tiny motion in-betweener (Lin)",
-            "configs/inbetween/tiny_motion.toml",
+            "tiny motion in-betweener (Lin + sin² taper, velocity loss)",
+            "configs/inbetween/tiny_motion_smooth.toml",
         ),
     ];
     let mut trained: Vec<_> = match train_all(opts, &data, &presets)? {

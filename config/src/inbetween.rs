@@ -93,6 +93,18 @@ pub enum Base {
     ElementwiseLerp,
 }
 
+/// How the learnt residual meets the keys ([OURS]: Lin adds f(·) everywhere and clamps the keys).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Taper {
+    /// Ŷ = B + f(·), keys clamped afterwards (Lin): the dance can jump one frame from a key.
+    #[default]
+    None,
+    /// Ŷ = B + w·f(·) with w = sin²(π(t − t1)/(t2 − t1)) between consecutive keys t1 < t2: zero value and
+    /// slope at every key, so the residual fades in and out and clamping changes nothing.
+    Sin2,
+}
+
 /// Where the drums variants' stem comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -151,6 +163,11 @@ pub struct InbetweenConfig {
     /// How `merged_*` join motion and music.
     pub merge_axis: MergeAxis,
     pub base: Base,
+    /// How the residual meets the keys (`none`: Lin's; `sin2`: faded to 0 at every key).
+    pub taper: Taper,
+    /// Weight of a velocity term in the training loss ([OURS]; 0 = Lin's plain MSE): the MSE of the
+    /// frame-to-frame differences, (Ŷ_{t+1} − Ŷ_t) − (Y_{t+1} − Y_t), over consecutive valid frames.
+    pub lambda_vel: f64,
     /// Keyframes per measure in training (even keys, §12.3a).
     pub train_keys: usize,
     /// Draw N from {3, 5, 9} per window instead of `train_keys` (for edits with other key counts).
@@ -203,6 +220,8 @@ impl InbetweenConfig {
             decoder: Decoder::Standard,
             merge_axis: MergeAxis::Features,
             base: Base::Slerp,
+            taper: Taper::None,
+            lambda_vel: 0.0,
             train_keys: 5,
             mixed_keys: false,
             random_keys: false,
@@ -267,6 +286,12 @@ impl InbetweenConfig {
             || self.music_mean.iter().any(|m| !m.is_finite())
         {
             return Err("inbetween.music_mean/music_std must be finite, with every SD > 0".into());
+        }
+        if !(self.lambda_vel.is_finite() && self.lambda_vel >= 0.0) {
+            return Err(format!(
+                "inbetween.lambda_vel must be a finite value ≥ 0, got {}",
+                self.lambda_vel
+            ));
         }
         if self.train_keys < 2 {
             return Err("inbetween.train_keys must be at least 2".into());

@@ -9,7 +9,8 @@
 //!
 //! Layers are §4.1 pre-LN (tanh-GELU MLP, fused bias-free q/k/v, output projection with bias, LayerNorm
 //! ε 1e-5); scores 1/√d_head (or 1/√d); dropout on the probabilities and the branch outputs; a key-padding
-//! bias (0 or −1e9) is the only mask, so batches may hold segments of unequal length.
+//! bias (0 or −1e9) is the only mask, so batches may hold segments of unequal length. `inbetween.taper =
+//! "sin2"` (ours) weighs the residual by sin² of the position between keys, so it vanishes at every key.
 
 use burn::module::{Module, Param};
 use burn::nn::{Dropout, DropoutConfig, LayerNorm, LayerNormConfig, Linear};
@@ -20,7 +21,7 @@ use crate::attention::{
 };
 use crate::feed_forward::{FeedForward, FeedForwardConfig};
 use crate::init::{glorot_dense, truncated_normal, truncated_normal_dense};
-use qean_config::inbetween::{Decoder, InbetweenConfig, MergeAxis, Variant};
+use qean_config::inbetween::{Decoder, InbetweenConfig, MergeAxis, Taper, Variant};
 
 /// Motion vector width (the 225-D layout of §1.4).
 pub const MOTION_DIM: usize = 225;
@@ -186,6 +187,27 @@ pub struct Conditioning {
     pub genre: Option<Tensor<2>>,
     /// Valid frames per row (the rest is padding); `None`: every frame is valid.
     pub lengths: Option<Vec<usize>>,
+    /// [B, T, 1] weights of the residual (`inbetween.taper`, from [`taper_weights`]); `None`: 1.
+    pub taper: Option<Tensor<3>>,
+}
+
+/// The residual's weight on each of a segment's `len` frames for sorted segment-relative `keys`
+/// (`inbetween.taper`): 1 everywhere for `none`; for `sin2`, sin²(π(t − t1)/(t2 − t1)) between consecutive
+/// keys t1 < t2, so 0 at every key (and outside the first and last key).
+pub fn taper_weights(keys: &[usize], len: usize, taper: Taper) -> Vec<f32> {
+    if taper == Taper::None {
+        return vec![1.0; len];
+    }
+    let mut w = vec![0.0f32; len];
+    for k in keys.windows(2) {
+        let span = (k[1] - k[0]) as f64;
+        for (t, v) in w.iter_mut().enumerate().take(k[1].min(len)).skip(k[0] + 1) {
+            *v = (std::f64::consts::PI * (t - k[0]) as f64 / span)
+                .sin()
+                .powi(2) as f32;
+        }
+    }
+    w
 }
 
 /// One in-betweener.
@@ -302,7 +324,11 @@ impl Inbetweener {
         if self.merge_time {
             x = x.narrow(1, 0, t);
         }
-        base + self.output.forward(x)
+        let residual = self.output.forward(x);
+        match &cond.taper {
+            Some(w) => base + residual * w.clone(),
+            None => base + residual,
+        }
     }
 }
 
@@ -428,6 +454,7 @@ mod tests {
                 music,
                 genre,
                 lengths: None,
+                taper: None,
             },
         )
     }
@@ -467,6 +494,7 @@ mod tests {
                 music: cond.music.clone().map(pad),
                 genre: cond.genre.clone(),
                 lengths: Some(vec![17, 17]),
+                taper: None,
             };
             let yp = model.forward(pad(base.clone()), &padded).narrow(1, 0, 17);
             let diff: f32 = (yp - y.clone()).abs().max().into_scalar();
@@ -480,6 +508,49 @@ mod tests {
             let y0 = model.forward(base.clone(), &cond);
             let diff: f32 = (y0 - base).abs().max().into_scalar();
             assert_eq!(diff, 0.0, "{variant:?}");
+        }
+    }
+
+    #[test]
+    fn a_tapered_residual_vanishes_at_the_keys() {
+        let keys = [0, 4, 12];
+        assert_eq!(taper_weights(&keys, 13, Taper::None), vec![1.0; 13]);
+        let w = taper_weights(&keys, 13, Taper::Sin2);
+        for k in keys {
+            assert_eq!(w[k], 0.0);
+        }
+        assert_eq!((w[2], w[8]), (1.0, 1.0), "midpoints of the spans");
+        assert!((w[1] - 0.5).abs() < 1e-6 && (w[3] - 0.5).abs() < 1e-6);
+        assert!((w[7] - w[9]).abs() < 1e-7, "symmetric in its span");
+        // Through the model: keys return the base bit for bit, other frames B + w·f.
+        let device = Device::flex();
+        device.seed(5);
+        let c = InbetweenConfig {
+            dropout: 0.0,
+            ..InbetweenConfig::tiny()
+        };
+        let model = Inbetweener::new(&c, &device);
+        let (base, mut cond) = inputs(Variant::Motion, 1, 13, &device);
+        let plain = model.forward(base.clone(), &cond);
+        cond.taper = Some(Tensor::from_data(
+            TensorData::new(w.clone(), [1, 13, 1]),
+            &device,
+        ));
+        let tapered = model.forward(base.clone(), &cond);
+        let rows = |x: Tensor<3>| x.into_data().try_to_vec::<f32>().unwrap();
+        let (b, p, y) = (rows(base), rows(plain), rows(tapered));
+        for (t, &wt) in w.iter().enumerate() {
+            for d in 0..MOTION_DIM {
+                let i = t * MOTION_DIM + d;
+                if keys.contains(&t) {
+                    assert_eq!(y[i], b[i], "frame {t}");
+                } else {
+                    assert!(
+                        (y[i] - (b[i] + wt * (p[i] - b[i]))).abs() < 1e-5,
+                        "frame {t}"
+                    );
+                }
+            }
         }
     }
 

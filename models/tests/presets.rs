@@ -288,6 +288,7 @@ fn tiny_inbetweeners_overfit_one_batch() {
                 genre: (variant == Variant::Genre)
                     .then(|| Tensor::from_data(TensorData::new(genre.clone(), [b, 9]), device)),
                 lengths: None,
+                taper: None,
             };
             (t3(&base, MOTION_DIM), t3(&target, MOTION_DIM), cond)
         };

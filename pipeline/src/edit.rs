@@ -286,6 +286,25 @@ fn model_music(trained: Option<&Trained>, req: &EditRequest) -> Result<Option<Ve
     })
 }
 
+/// The output must be a .pkl in an existing directory.
+fn check_output(out: &Path) -> Result<()> {
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            return Err(Error::Invalid(format!(
+                "{}: the output directory does not exist",
+                out.display()
+            )));
+        }
+    }
+    if qean_io::fsutil::extension_lower(out) != "pkl" {
+        return Err(Error::Invalid(format!(
+            "{}: the edited dance is written as .pkl",
+            out.display()
+        )));
+    }
+    Ok(())
+}
+
 /// Run an edit; returns the report (already written beside the output).
 pub fn edit(req: &EditRequest) -> Result<EditReport> {
     req.options
@@ -301,20 +320,7 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
         .map_err(|e| Error::Invalid(format!("{}: cannot read: {e}", req.edits.display())))?;
     let spec = EditSpec::parse(&text, motion.frames)
         .map_err(|e| Error::Invalid(format!("{}: {e}", req.edits.display())))?;
-    if let Some(dir) = req.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        if !dir.is_dir() {
-            return Err(Error::Invalid(format!(
-                "{}: the output directory does not exist",
-                req.out.display()
-            )));
-        }
-    }
-    if qean_io::fsutil::extension_lower(&req.out) != "pkl" {
-        return Err(Error::Invalid(format!(
-            "{}: the edited dance is written as .pkl",
-            req.out.display()
-        )));
-    }
+    check_output(&req.out)?;
     let (kept, cuts) = kept_frames(
         &motion,
         req,

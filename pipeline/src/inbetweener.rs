@@ -4,9 +4,10 @@
 use std::path::Path;
 
 use burn::tensor::{Device, Tensor, TensorData};
-use qean_config::inbetween::{InbetweenConfig, Variant};
+use qean_config::inbetween::{InbetweenConfig, Taper, Variant};
 use qean_models::inbetween::{
-    genre_index, genres, music_columns, Conditioning, Inbetweener, MOTION_DIM, MUSIC_DIM,
+    genre_index, genres, music_columns, taper_weights, Conditioning, Inbetweener, MOTION_DIM,
+    MUSIC_DIM,
 };
 use qean_motion::{Layout, Motion};
 use qean_train::checkpoint::{resolve, Checkpoint};
@@ -121,10 +122,12 @@ pub fn rebuild(
         }
         (false, _) => None,
     };
-    let (mut base, mut music) = (Vec::new(), Vec::new());
+    let (mut base, mut music, mut taper) = (Vec::new(), Vec::new(), Vec::new());
     for (s, &len) in segments.iter().zip(&lens) {
         let seg = &rows[s.a * w..(s.b + 1) * w];
         let rel: Vec<usize> = s.keys.iter().map(|k| k - s.a).collect();
+        taper.extend(taper_weights(&rel, len, c.taper));
+        taper.extend(std::iter::repeat_n(0.0, t - len));
         let mut bi = base_225(seg, len, &rel, c.base);
         bi.extend(std::iter::repeat_n(0.0, (t - len) * w));
         base.extend(bi);
@@ -150,6 +153,8 @@ pub fn rebuild(
             Tensor::from_data(TensorData::new(v, [n, width]), &device)
         }),
         lengths: Some(lens.clone()),
+        taper: (c.taper != Taper::None)
+            .then(|| Tensor::<3>::from_data(TensorData::new(taper, [n, t, 1]), &device)),
     };
     let out: Vec<f32> = model
         .forward(

@@ -12,13 +12,14 @@ use std::sync::Arc;
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::windows::{Batch, Sequence, SequenceSet, WindowSpec};
-use qean_config::inbetween::{Base, InbetweenConfig, Variant};
+use qean_config::inbetween::{Base, InbetweenConfig, Taper, Variant};
 use qean_config::run::RunConfig;
 use qean_io::error::{Error, Result};
 use qean_keyframes::even::even_keys;
 use qean_keyframes::measure::{segments, Boundary, Rounding};
 use qean_models::inbetween::{
-    genre_index, genres, music_columns, Conditioning, Inbetweener, MOTION_DIM, MUSIC_DIM,
+    genre_index, genres, music_columns, taper_weights, Conditioning, Inbetweener, MOTION_DIM,
+    MUSIC_DIM,
 };
 use qean_motion::rotation::{axis_angle_to_matrix, matrix_to_quaternion, Mat3};
 use rand::{Rng, SeedableRng};
@@ -292,9 +293,12 @@ pub fn tensors(batch: &Batch, c: &InbetweenConfig, seed: u64, device: &Device) -
     let t = lens.iter().copied().max().unwrap_or(1);
     let (w, span) = (MOTION_DIM, batch.spec.motion_len);
     let (mut base, mut target, mut music, mut mask) = (vec![], vec![], vec![], vec![]);
+    let mut taper = vec![];
     for (i, &len) in lens.iter().enumerate() {
         let rows = &batch.motion[i * span * w..(i + 1) * span * w];
         let keys = window_keys(c, seed, i, len);
+        taper.extend(taper_weights(&keys, len, c.taper));
+        taper.extend(std::iter::repeat_n(0.0, t - len));
         let mut bi = base_225(rows, len, &keys, c.base);
         bi.extend_from_slice(&rows[len * w..t * w]);
         base.extend(bi);
@@ -323,18 +327,32 @@ pub fn tensors(batch: &Batch, c: &InbetweenConfig, seed: u64, device: &Device) -
             music: c.variant.has_audio().then(|| tensor(music, MUSIC_DIM)),
             genre,
             lengths: Some(lens.clone()),
+            taper: (c.taper != Taper::None).then(|| tensor(taper, 1)),
         },
         valid_frames: lens.iter().sum(),
     }
 }
 
-/// The MSE of the residual over valid frames × 225 values: ((Ŷ − B) − (Y − B))² = (Ŷ − Y)².
-pub fn residual_loss(model: &Inbetweener, inputs: IbInputs) -> Tensor<1> {
+/// The MSE of the residual over valid frames × 225 values: ((Ŷ − B) − (Y − B))² = (Ŷ − Y)²; plus, with
+/// `lambda_vel` > 0, λ times the MSE of its frame-to-frame differences over consecutive valid frames (a
+/// jitter penalty of ours; Lin's loss is the first term).
+pub fn residual_loss(model: &Inbetweener, inputs: IbInputs, lambda_vel: f64) -> Tensor<1> {
     let pred = model.forward(inputs.base, &inputs.cond);
-    let diff = (pred - inputs.target) * inputs.mask;
-    (diff.clone() * diff)
+    let diff = (pred - inputs.target) * inputs.mask.clone();
+    let mse = (diff.clone() * diff.clone())
         .sum()
-        .div_scalar((inputs.valid_frames * MOTION_DIM) as f64)
+        .div_scalar((inputs.valid_frames * MOTION_DIM) as f64);
+    let [b, t, _] = diff.dims();
+    if lambda_vel == 0.0 || t < 2 {
+        return mse;
+    }
+    let pairs = inputs.mask.clone().narrow(1, 1, t - 1) * inputs.mask.narrow(1, 0, t - 1);
+    let step = (diff.clone().narrow(1, 1, t - 1) - diff.narrow(1, 0, t - 1)) * pairs;
+    let count = (inputs.valid_frames.saturating_sub(b)).max(1) * MOTION_DIM;
+    mse + (step.clone() * step)
+        .sum()
+        .div_scalar(count as f64)
+        .mul_scalar(lambda_vel)
 }
 
 /// Mean and SD of the 22 music columns over every frame of the training split's music (each music ID once;
@@ -444,11 +462,12 @@ impl Family for InbetweenFamily {
         tensors(&drawn, config_of(ctx.config), ctx.rng_seed, device)
     }
 
-    fn loss(&self, model: &Inbetweener, inputs: IbInputs, _config: &RunConfig) -> Tensor<1> {
-        residual_loss(model, inputs)
+    fn loss(&self, model: &Inbetweener, inputs: IbInputs, config: &RunConfig) -> Tensor<1> {
+        residual_loss(model, inputs, config_of(config).lambda_vel)
     }
 
-    /// Every validation measure once, `train_keys` keys, no dropout: the mean loss per valid value.
+    /// Every validation measure once, `train_keys` keys, no dropout: the mean squared error per valid value
+    /// (without the velocity term, so runs with other `lambda_vel` compare).
     fn validation_loss(
         &self,
         model: &Inbetweener,
@@ -468,7 +487,7 @@ impl Family for InbetweenFamily {
             let end = (start + config.train.batch_size.max(1)).min(all.len());
             let inputs = tensors(&all.slice(start, end), &c, 0, device);
             let values = inputs.valid_frames * MOTION_DIM;
-            sum += residual_loss(model, inputs).into_scalar::<f32>() as f64 * values as f64;
+            sum += residual_loss(model, inputs, 0.0).into_scalar::<f32>() as f64 * values as f64;
             count += values;
             start = end;
         }
@@ -532,5 +551,69 @@ mod tests {
         assert!(differ);
         // More keys than frames: every frame is a key.
         assert_eq!(window_keys(&c, 7, 0, 4), vec![0, 1, 2, 3]);
+    }
+
+    /// With the output layer zeroed Ŷ = B, so the loss is a closed form of B − Y: the plain MSE over valid
+    /// values, plus λ times the MSE of consecutive valid differences (padding ignored).
+    #[test]
+    fn velocity_term_is_the_mse_of_consecutive_differences() {
+        let device = Device::flex();
+        device.seed(1);
+        let c = InbetweenConfig {
+            dropout: 0.0,
+            ..InbetweenConfig::tiny()
+        };
+        let mut model = Inbetweener::new(&c, &device);
+        model.output.weight = model.output.weight.map(|w| w.zeros_like());
+        model.output.bias = model.output.bias.map(|p| p.map(|b| b.zeros_like()));
+        // Two rows of 4 frames; the second has 3 valid frames.
+        let (b, t, w) = (2, 4, MOTION_DIM);
+        let e = |i: usize, f: usize, d: usize| ((i * 7 + f * 3 + d) % 5) as f64 * 0.1 - 0.2;
+        let lens = [4usize, 3];
+        let (mut base, mut target, mut mask) = (vec![], vec![], vec![]);
+        for (i, &len) in lens.iter().enumerate() {
+            for f in 0..t {
+                for d in 0..w {
+                    base.push(0.5f32);
+                    target.push((0.5 - e(i, f, d)) as f32);
+                }
+                mask.push(if f < len { 1.0f32 } else { 0.0 });
+            }
+        }
+        let tensor = |v: Vec<f32>, width: usize| {
+            Tensor::<3>::from_data(TensorData::new(v, [b, t, width]), &device)
+        };
+        let inputs = || IbInputs {
+            base: tensor(base.clone(), w),
+            target: tensor(target.clone(), w),
+            mask: tensor(mask.clone(), 1),
+            cond: Conditioning {
+                music: None,
+                genre: None,
+                lengths: Some(lens.to_vec()),
+                taper: None,
+            },
+            valid_frames: 7,
+        };
+        let (mut sq, mut vel) = (0.0, 0.0);
+        for (i, &len) in lens.iter().enumerate() {
+            for d in 0..w {
+                for f in 0..len {
+                    sq += e(i, f, d).powi(2);
+                }
+                for f in 1..len {
+                    vel += (e(i, f, d) - e(i, f - 1, d)).powi(2);
+                }
+            }
+        }
+        let (mse, vmse) = (sq / (7 * w) as f64, vel / (5 * w) as f64);
+        let got = |l: f64| residual_loss(&model, inputs(), l).into_scalar::<f32>() as f64;
+        assert!((got(0.0) - mse).abs() < 1e-6, "{} vs {mse}", got(0.0));
+        assert!(
+            (got(2.5) - (mse + 2.5 * vmse)).abs() < 1e-5,
+            "{} vs {}",
+            got(2.5),
+            mse + 2.5 * vmse
+        );
     }
 }

@@ -152,7 +152,9 @@ mod tests {
             mfcc: (0..frames * MFCC_DIM)
                 .map(|i| ((i * 7 + salt) as f32 * 0.13).sin() * 40.0)
                 .collect(),
-            beats: (0..frames).map(|f| (f + salt).is_multiple_of(15) as u8).collect(),
+            beats: (0..frames)
+                .map(|f| (f + salt).is_multiple_of(15) as u8)
+                .collect(),
             frames,
         }
     }
