@@ -224,7 +224,7 @@ pub fn table(d: &InbetweenDemo) -> String {
             t += &format!(
                 "; it JITTERS: mean acceleration {accel:.1}× the original's, between the keys (next to a key its joint \
                  error, {near:.4} m, is SLERP's {slerp_near:.4} m): the residual still wobbles mid-span at {} steps \
-                 (the full demo's 2,000 steps brought it to 1.7×, docs/keyframes.md)",
+                 (2,000 steps, the full demo's budget, brought it to 1.7× on demo-sized data: docs/keyframes.md)",
                 d.steps
             );
         } else {
