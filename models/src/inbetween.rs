@@ -39,6 +39,18 @@ pub fn genres(c: &InbetweenConfig) -> &'static [&'static str] {
     }
 }
 
+/// [rows, 9 | 10] genre one-hots of the genre variant, one row per index (`None`: all zeros).
+pub fn genre_one_hot(c: &InbetweenConfig, rows: &[Option<usize>], device: &Device) -> Tensor<2> {
+    let width = genres(c).len();
+    let mut v = vec![0f32; rows.len() * width];
+    for (i, g) in rows.iter().enumerate() {
+        if let Some(k) = g {
+            v[i * width + k] = 1.0;
+        }
+    }
+    Tensor::from_data(TensorData::new(v, [rows.len(), width]), device)
+}
+
 /// The one-hot index of a genre code (`None` for unknown codes, and JB unless `include_jb`).
 pub fn genre_index(c: &InbetweenConfig, code: &str) -> Option<usize> {
     genres(c).iter().position(|g| *g == code)
@@ -191,9 +203,9 @@ pub struct Conditioning {
     pub taper: Option<Tensor<3>>,
 }
 
-/// The residual's weight on each of a segment's `len` frames for sorted segment-relative `keys`
-/// (`inbetween.taper`): 1 everywhere for `none`; for `sin2`, sin²(π(t − t1)/(t2 − t1)) between consecutive
-/// keys t1 < t2, so 0 at every key (and outside the first and last key).
+/// The residual's weight on each of `len` frames (a segment and its padding) for sorted segment-relative
+/// `keys` (`inbetween.taper`): 1 everywhere for `none`; for `sin2`, sin²(π(t − t1)/(t2 − t1)) between
+/// consecutive keys t1 < t2, so 0 at every key and outside the first and last key (the padding).
 pub fn taper_weights(keys: &[usize], len: usize, taper: Taper) -> Vec<f32> {
     if taper == Taper::None {
         return vec![1.0; len];
@@ -522,6 +534,8 @@ mod tests {
         assert_eq!((w[2], w[8]), (1.0, 1.0), "midpoints of the spans");
         assert!((w[1] - 0.5).abs() < 1e-6 && (w[3] - 0.5).abs() < 1e-6);
         assert!((w[7] - w[9]).abs() < 1e-7, "symmetric in its span");
+        // Padding past the last key weighs 0.
+        assert_eq!(taper_weights(&[0, 4], 7, Taper::Sin2)[5..], [0.0, 0.0]);
         // Through the model: keys return the base bit for bit, other frames B + w·f.
         let device = Device::flex();
         device.seed(5);

@@ -6,8 +6,8 @@ use std::path::Path;
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_config::inbetween::{InbetweenConfig, Taper, Variant};
 use qean_models::inbetween::{
-    genre_index, genres, music_columns, taper_weights, Conditioning, Inbetweener, MOTION_DIM,
-    MUSIC_DIM,
+    genre_index, genre_one_hot, genres, music_columns, taper_weights, Conditioning, Inbetweener,
+    MOTION_DIM, MUSIC_DIM,
 };
 use qean_motion::{Layout, Motion};
 use qean_train::checkpoint::{resolve, Checkpoint};
@@ -126,8 +126,7 @@ pub fn rebuild(
     for (s, &len) in segments.iter().zip(&lens) {
         let seg = &rows[s.a * w..(s.b + 1) * w];
         let rel: Vec<usize> = s.keys.iter().map(|k| k - s.a).collect();
-        taper.extend(taper_weights(&rel, len, c.taper));
-        taper.extend(std::iter::repeat_n(0.0, t - len));
+        taper.extend(taper_weights(&rel, t, c.taper));
         let mut bi = base_225(seg, len, &rel, c.base);
         bi.extend(std::iter::repeat_n(0.0, (t - len) * w));
         base.extend(bi);
@@ -146,12 +145,7 @@ pub fn rebuild(
     let cond = Conditioning {
         music: features
             .map(|_| Tensor::<3>::from_data(TensorData::new(music, [n, t, MUSIC_DIM]), &device)),
-        genre: genre.map(|g| {
-            let width = genres(c).len();
-            let mut v = vec![0f32; n * width];
-            (0..n).for_each(|i| v[i * width + g] = 1.0);
-            Tensor::from_data(TensorData::new(v, [n, width]), &device)
-        }),
+        genre: genre.map(|g| genre_one_hot(c, &vec![Some(g); n], &device)),
         lengths: Some(lens.clone()),
         taper: (c.taper != Taper::None)
             .then(|| Tensor::<3>::from_data(TensorData::new(taper, [n, t, 1]), &device)),

@@ -18,8 +18,8 @@ use qean_io::error::{Error, Result};
 use qean_keyframes::even::even_keys;
 use qean_keyframes::measure::{segments, Boundary, Rounding};
 use qean_models::inbetween::{
-    genre_index, genres, music_columns, taper_weights, Conditioning, Inbetweener, MOTION_DIM,
-    MUSIC_DIM,
+    genre_index, genre_one_hot, music_columns, taper_weights, Conditioning, Inbetweener,
+    MOTION_DIM, MUSIC_DIM,
 };
 use qean_motion::rotation::{axis_angle_to_matrix, matrix_to_quaternion, Mat3};
 use rand::{Rng, SeedableRng};
@@ -297,8 +297,7 @@ pub fn tensors(batch: &Batch, c: &InbetweenConfig, seed: u64, device: &Device) -
     for (i, &len) in lens.iter().enumerate() {
         let rows = &batch.motion[i * span * w..(i + 1) * span * w];
         let keys = window_keys(c, seed, i, len);
-        taper.extend(taper_weights(&keys, len, c.taper));
-        taper.extend(std::iter::repeat_n(0.0, t - len));
+        taper.extend(taper_weights(&keys, t, c.taper));
         let mut bi = base_225(rows, len, &keys, c.base);
         bi.extend_from_slice(&rows[len * w..t * w]);
         base.extend(bi);
@@ -307,14 +306,12 @@ pub fn tensors(batch: &Batch, c: &InbetweenConfig, seed: u64, device: &Device) -
         mask.extend((0..t).map(|f| if f < len { 1.0f32 } else { 0.0 }));
     }
     let genre = (c.variant == Variant::Genre).then(|| {
-        let width = genres(c).len();
-        let mut g = vec![0f32; b * width];
-        for (i, n) in batch.names.iter().enumerate() {
-            if let Some(k) = n.get(1..3).and_then(|code| genre_index(c, code)) {
-                g[i * width + k] = 1.0;
-            }
-        }
-        Tensor::from_data(TensorData::new(g, [b, width]), device)
+        let rows: Vec<Option<usize>> = batch
+            .names
+            .iter()
+            .map(|n| n.get(1..3).and_then(|code| genre_index(c, code)))
+            .collect();
+        genre_one_hot(c, &rows, device)
     });
     let tensor = |v: Vec<f32>, width: usize| {
         Tensor::<3>::from_data(TensorData::new(v, [b, t, width]), device)
