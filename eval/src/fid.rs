@@ -92,6 +92,11 @@ pub fn frechet_distance(a: &Gaussian, b: &Gaussian) -> Result<f64> {
 }
 
 /// FID between two sets of (normalised) feature vectors.
+/// With zero dimensions (every one constant over the reference set, left out) the distance is 0.
 pub fn fid(a: &[Vec<f64>], b: &[Vec<f64>]) -> Result<f64> {
-    frechet_distance(&Gaussian::fit(a)?, &Gaussian::fit(b)?)
+    let (ga, gb) = (Gaussian::fit(a)?, Gaussian::fit(b)?);
+    if ga.mean.is_empty() {
+        return Ok(0.0);
+    }
+    frechet_distance(&ga, &gb)
 }

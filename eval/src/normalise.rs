@@ -57,11 +57,46 @@ impl Normaliser {
         features.iter().map(|f| self.apply_one(f)).collect()
     }
 
+    /// [`Normaliser::apply`] without the [`Normaliser::constant_dims`]: a dimension with no spread in the
+    /// reference set says nothing about distances between distributions, and dividing by σ + 1e-10 would
+    /// turn any difference there into up to 1e10.
+    pub fn apply_varying(&self, features: &[Vec<f64>]) -> Vec<Vec<f64>> {
+        let constant = self.constant_dims();
+        features
+            .iter()
+            .map(|f| {
+                self.apply_one(f)
+                    .into_iter()
+                    .enumerate()
+                    .filter(|(i, _)| !constant.contains(i))
+                    .map(|(_, x)| x)
+                    .collect()
+            })
+            .collect()
+    }
+
     /// Dimensions that are constant over the GT set up to round-off (worth a warning: any difference
     /// there, even round-off, is multiplied by up to 1e10).
     pub fn constant_dims(&self) -> Vec<usize> {
         (0..self.std.len())
             .filter(|&i| self.std[i] <= 64.0 * f64::EPSILON * self.mean[i].abs())
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn constant_reference_dimensions_are_left_out() {
+        // Dimension 1 never moves in the reference; a generated vector departing there by 1 would be
+        // 1e10 away after the reference code's σ + 1e-10.
+        let reference = vec![vec![0.0, 2.0, 1.0], vec![2.0, 2.0, 3.0]];
+        let n = Normaliser::fit(&reference).unwrap();
+        assert_eq!(n.constant_dims(), vec![1]);
+        assert!(n.apply_one(&[1.0, 3.0, 2.0])[1] > 1e9);
+        let v = n.apply_varying(&[vec![1.0, 3.0, 2.0]]);
+        assert_eq!(v, vec![vec![0.0, 0.0]]);
     }
 }

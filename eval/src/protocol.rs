@@ -17,7 +17,7 @@ use crate::li_metrics::li_metrics;
 use crate::motion_energy::{motion_energy, EnergyReference};
 use crate::normalise::Normaliser;
 use crate::positions::{check_finite, prepare, Frame, Sequence};
-use crate::report::{Exclusion, MetricsReport, SequenceMetrics};
+use crate::report::{Exclusion, Explosion, MetricsReport, SequenceMetrics};
 
 /// Music beats (60 FPS frame indices of the whole track) for a music ID such as `mBR0`.
 pub type BeatLookup<'a> = &'a (dyn Fn(&str) -> Result<Vec<usize>> + Sync);
@@ -166,14 +166,16 @@ fn distribution(gen_feats: &[Features], ref_feats: &[Features]) -> Result<Distri
     for (what, n) in [("kinetic", &norm_k), ("geometric", &norm_g)] {
         let dims = n.constant_dims();
         if !dims.is_empty() {
-            warn!(
-                "{what} feature dimension(s) {dims:?} are constant over the reference set; \
-                 normalised by σ + 1e-10 as the reference code does"
+            // The report says so too (its notes); a log line per evaluation mode is enough at -v.
+            info!(
+                "{what} feature dimension(s) {dims:?} are constant over the reference set: left out of \
+                 FID and Dist (the reference code divides by σ + 1e-10 there, so any difference is \
+                 multiplied by up to 1e10)"
             );
         }
     }
-    let (gen_kn, ref_kn) = (norm_k.apply(&gen_k), norm_k.apply(&ref_k));
-    let (gen_gn, ref_gn) = (norm_g.apply(&gen_g), norm_g.apply(&ref_g));
+    let (gen_kn, ref_kn) = (norm_k.apply_varying(&gen_k), norm_k.apply_varying(&ref_k));
+    let (gen_gn, ref_gn) = (norm_g.apply_varying(&gen_g), norm_g.apply_varying(&ref_g));
     let fid_k = fid(&gen_kn, &ref_kn)?;
     let fid_g = fid(&gen_gn, &ref_gn)?;
     let div_k = average_distance(&gen_kn)?;
@@ -191,6 +193,50 @@ fn distribution(gen_feats: &[Features], ref_feats: &[Features]) -> Result<Distri
         norm_k,
         norm_g,
     })
+}
+
+/// FID_k and FID_g of `generated` (evaluated frames per `cfg`) against `reference`, both normalised with
+/// the statistics of the larger set `normalise_by` (whole sequences) instead of `reference`'s own: a
+/// reference of a few sequences — one genre's six — has near-zero spreads in many dimensions, and
+/// normalising by them turns small differences into numbers like 4e6. Dimensions constant over
+/// `normalise_by` are left out, as in [`evaluate`].
+pub fn fid_within(
+    generated: &[Sequence],
+    reference: &[Sequence],
+    normalise_by: &[Sequence],
+    cfg: &EvalConfig,
+) -> Result<(f64, f64)> {
+    let (held, _) = hold_exploded(generated, cfg.seed_frames);
+    let (gen, refs, _) = usable(&held, reference, cfg)?;
+    let feats = |set: Vec<&[Frame]>| -> Result<Vec<Features>> {
+        set.par_iter().map(|j| features_of(j, cfg)).collect()
+    };
+    let gen_feats = feats(
+        gen.iter()
+            .map(|(s, len)| &s.joints[cfg.seed_frames..cfg.seed_frames + len])
+            .collect(),
+    )?;
+    let ref_feats = feats(refs.iter().map(|s| s.joints.as_slice()).collect())?;
+    let all_feats = feats(
+        normalise_by
+            .iter()
+            .filter(|s| s.joints.len() >= kinetic::MIN_FRAMES)
+            .map(|s| s.joints.as_slice())
+            .collect(),
+    )?;
+    let split = |f: &[Features]| -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+        f.iter()
+            .map(|x| (x.kinetic.clone(), x.geometric.clone()))
+            .unzip()
+    };
+    let (gk, gg) = split(&gen_feats);
+    let (rk, rg) = split(&ref_feats);
+    let (ak, ag) = split(&all_feats);
+    let (nk, ng) = (Normaliser::fit(&ak)?, Normaliser::fit(&ag)?);
+    Ok((
+        fid(&nk.apply_varying(&gk), &nk.apply_varying(&rk))?,
+        fid(&ng.apply_varying(&gg), &ng.apply_varying(&rg))?,
+    ))
 }
 
 /// BeatAlign per generated sequence, of the ground truth of the same name, and the music IDs.
@@ -277,10 +323,72 @@ fn beat_scores(
     })
 }
 
+/// A joint farther than this from its root (metres) is not a body any more: the dance exploded.
+pub const EXPLODED_REACH: f64 = 5.0;
+/// A root farther than this from the origin (metres) has left any stage.
+pub const EXPLODED_TRAVEL: f64 = 1000.0;
+
+/// Why a finite frame is not a body, if it is not: a joint beyond [`EXPLODED_REACH`] of its root, or the
+/// root beyond [`EXPLODED_TRAVEL`]. (A non-finite value is not judged here: it is bad input, an error.)
+fn implausible(frame: &Frame) -> Option<String> {
+    let root = frame[0];
+    if frame.iter().flatten().any(|x| !x.is_finite()) {
+        return None;
+    }
+    if root.iter().map(|x| x * x).sum::<f64>().sqrt() > EXPLODED_TRAVEL {
+        return Some(format!(
+            "the root is over {EXPLODED_TRAVEL} m from the origin"
+        ));
+    }
+    let reach = frame
+        .iter()
+        .map(|p| (0..3).map(|a| (p[a] - root[a]).powi(2)).sum::<f64>().sqrt())
+        .fold(0.0, f64::max);
+    (reach > EXPLODED_REACH)
+        .then(|| format!("a joint is {reach:.3e} m from the root (over {EXPLODED_REACH} m)"))
+}
+
+/// Generated dances with their exploded tails held: from the first generated frame that is not a body
+/// ([`implausible`]) on, each frame repeats the last plausible one, so the metrics score a dance that
+/// stopped there (finite, and far from the data) instead of printing astronomically large numbers.
+/// Returns the dances and the record of each explosion.
+pub fn hold_exploded(
+    generated: &[Sequence],
+    seed_frames: usize,
+) -> (Vec<Sequence>, Vec<Explosion>) {
+    let mut record = Vec::new();
+    let held = generated
+        .iter()
+        .map(|s| {
+            let mut s = s.clone();
+            let start = seed_frames.min(s.joints.len());
+            let first = (start..s.joints.len())
+                .take_while(|&t| s.joints[t].iter().flatten().all(|x| x.is_finite()))
+                .find_map(|t| implausible(&s.joints[t]).map(|r| (t, r)));
+            if let Some((t, reason)) = first {
+                if t > 0 && implausible(&s.joints[t - 1]).is_none() {
+                    let last = s.joints[t - 1];
+                    s.joints[t..].fill(last);
+                    warn!(sequence = %s.name, "the dance exploded at frame {t} ({reason}); held at frame {} from there", t - 1);
+                    record.push(Explosion {
+                        name: s.name.clone(),
+                        frame: t,
+                        reason,
+                    });
+                }
+            }
+            s
+        })
+        .collect();
+    (held, record)
+}
+
 /// Evaluate `generated` (seed ++ generated frames, per `cfg.seed_frames`) against the GT
 /// `reference` set (full length). With `music_beats`, BeatAlign is computed too.
 ///
-/// Degenerate inputs: a non-finite joint is an error; a sequence too short for the features
+/// Degenerate inputs: a generated dance that explodes (finite, but no longer a body) is held at its last
+/// plausible frame and recorded ([`hold_exploded`]); a non-finite joint is an error; feature dimensions constant over
+/// the reference set are left out of FID and Dist (and named in the report); a sequence too short for the features
 /// (fewer than 4 evaluated frames) is excluded and logged; fewer than 2 usable sequences on
 /// either side is an error (covariances and Dist need 2); a sequence without music beats in range
 /// is left out of BeatAlign and logged.
@@ -290,6 +398,8 @@ pub fn evaluate(
     music_beats: Option<BeatLookup>,
     cfg: &EvalConfig,
 ) -> Result<MetricsReport> {
+    let (held, exploded) = hold_exploded(generated, cfg.seed_frames);
+    let generated = held.as_slice();
     generated
         .par_iter()
         .chain(reference.par_iter())
@@ -384,6 +494,7 @@ pub fn evaluate(
         energy_reference: Some(energy_reference),
         sequences,
         excluded,
+        exploded,
         li,
     };
     report.check_finite()?;

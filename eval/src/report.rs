@@ -36,6 +36,14 @@ pub struct Exclusion {
     pub reason: String,
 }
 
+/// A generated dance that exploded: from `frame` on it was held at its last plausible frame.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Explosion {
+    pub name: String,
+    pub frame: usize,
+    pub reason: String,
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MetricsReport {
     pub config: EvalConfig,
@@ -60,7 +68,8 @@ pub struct MetricsReport {
     pub n_reference: usize,
     pub n_beat_align: usize,
     pub n_gt_beat_align: usize,
-    /// Reference dimensions with σ = 0 (normalised by 1e-10 as the reference does).
+    /// Reference dimensions with σ = 0, left out of FID and Dist (the reference code divides by
+    /// σ + 1e-10 there).
     pub constant_reference_dims_k: Vec<usize>,
     pub constant_reference_dims_g: Vec<usize>,
     /// The set's motion energy (speed_ratio, accel_ratio, freeze_fraction, 5-s spans) against
@@ -71,6 +80,9 @@ pub struct MetricsReport {
     pub energy_reference: Option<EnergyReference>,
     pub sequences: Vec<SequenceMetrics>,
     pub excluded: Vec<Exclusion>,
+    /// Generated dances that exploded (held at their last plausible frame for every metric).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub exploded: Vec<Explosion>,
     /// The TSMT paper's metrics (beat P/R/F1, A-/I-/S-music-D, Authenticity, Coherence), as top-level
     /// keys.
     #[serde(flatten)]
@@ -185,6 +197,40 @@ pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
             r.n_gt_beat_align,
             r.label
         ));
+    }
+    for (name, r) in rows {
+        let dims = |d: &[usize], of: usize, what: &str| {
+            (!d.is_empty()).then(|| {
+                format!(
+                    "{what} over {} of {of} dimensions ({d:?} are constant over the reference set)",
+                    of - d.len()
+                )
+            })
+        };
+        let notes: Vec<String> = [
+            dims(
+                &r.constant_reference_dims_k,
+                crate::kinetic::KINETIC_DIM,
+                "FID_k/Dist_k",
+            ),
+            dims(
+                &r.constant_reference_dims_g,
+                crate::geometric::GEOMETRIC_DIM,
+                "FID_g/Dist_g",
+            ),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        if !notes.is_empty() {
+            out.push_str(&format!("- {name}: {}\n", notes.join("; ")));
+        }
+        for e in &r.exploded {
+            out.push_str(&format!(
+                "- {name}: {} EXPLODED at frame {} ({}); every metric sees it held at its last plausible frame from there\n",
+                e.name, e.frame, e.reason
+            ));
+        }
     }
     out.push_str(&li_block(rows));
     if let Some(reference) = rows.first().and_then(|(_, r)| r.energy_reference) {

@@ -126,6 +126,10 @@ pub struct RunReport {
     /// Where the seeds started (`zero` for reports written before the option existed).
     #[serde(default)]
     pub seed_start: SeedStart,
+    /// How a token model's dances were drawn (TSMT's decoding, temperature, top-k; the GPT's picking);
+    /// `None` for FACT and QEAN, which are deterministic.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sampler: Option<String>,
     pub pairings: Vec<Pairing>,
     pub reports: Vec<MetricsReport>,
     /// With `--baselines`: the chance baselines, scored like the first report.

@@ -187,19 +187,46 @@ fn constant_features_stay_finite() {
     let rep = evaluate(&g, &r, None, &cfg()).unwrap();
     assert_eq!(rep.constant_reference_dims_k.len(), 72);
     assert_eq!(rep.constant_reference_dims_g.len(), 32);
-    // Identical vectors: Dist is exactly 0. FID sees the round-off of μ amplified by 1/(σ + 1e-10),
-    // as the reference does, so it is small, not 0.
-    assert_eq!((rep.div_k, rep.gt_div_g), (0.0, 0.0));
-    assert!(
-        rep.fid_k.abs() < 1e-2 && rep.fid_g.abs() < 1e-2,
-        "{} {}",
-        rep.fid_k,
-        rep.fid_g
+    // Every dimension is left out of FID and Dist (the reference code would divide by 1e-10): 0 over
+    // no dimensions, and the report says so.
+    assert_eq!(
+        (rep.div_k, rep.gt_div_g, rep.fid_k, rep.fid_g),
+        (0.0, 0.0, 0.0, 0.0)
     );
-    // A generated set that moves, against a constant reference: huge but finite.
+    let md = qean_eval::report::render_markdown(&[("gen", &rep)]);
+    assert!(md.contains("over 0 of 72 dimensions"), "{md}");
+    // A generated set that moves, against a constant reference: finite (no dimension to compare).
     let (g, _) = sets(3, 0, 200);
     let rep = evaluate(&g, &r, None, &cfg()).unwrap();
-    assert!(rep.fid_k.is_finite() && rep.fid_k > 1e10);
+    assert!(rep.fid_k.is_finite() && rep.fid_k < 1e3);
+}
+
+#[test]
+fn an_exploding_dance_is_held_flagged_and_scored_finitely() {
+    let (mut g, r) = sets(3, 6, 200);
+    let seed = cfg().seed_frames;
+    // Dance 1 explodes at generated frame 50: its joints fly off, by 1e8 m more every frame.
+    let at = seed + 50;
+    for (t, frame) in g[1].joints.iter_mut().enumerate().skip(at) {
+        for p in frame.iter_mut().skip(1) {
+            p[0] += 1e8 * (t - at + 1) as f64;
+        }
+    }
+    let rep = evaluate(&g, &r, None, &cfg()).unwrap();
+    assert_eq!(rep.exploded.len(), 1);
+    assert_eq!(
+        (rep.exploded[0].name.as_str(), rep.exploded[0].frame),
+        (g[1].name.as_str(), at)
+    );
+    assert!(rep.fid_k.is_finite() && rep.fid_k < 1e6, "{}", rep.fid_k);
+    let e = rep.motion_energy.as_ref().unwrap();
+    assert!(e.speed_ratio < 10.0, "{}", e.speed_ratio);
+    let md = qean_eval::report::render_markdown(&[("gen", &rep)]);
+    assert!(md.contains("EXPLODED at frame"), "{md}");
+    // A reference sequence with a NaN is still bad input.
+    let mut bad = r.clone();
+    bad[0].joints[5][2][0] = f64::NAN;
+    assert!(evaluate(&g, &bad, None, &cfg()).is_err());
 }
 
 #[test]
