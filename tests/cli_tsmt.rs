@@ -123,6 +123,62 @@ fn tsmt_trains_resumes_samples_and_evaluates() {
     assert_eq!(read(&out), read(&again), "same seed, same dance");
     assert_ne!(read(&out), read(&other), "another seed, another dance");
 
+    // Every decoding dances the same length; coherent and mean move less from frame to frame than the
+    // paper's independent draws (docs/tsmt.md measures them); `bin` is the run's default here.
+    let accel = |dir: &Path| {
+        let j = qean_io::npy::read(&dir.join("dance.joints.npy")).unwrap();
+        let v = &j.data;
+        let frame = |t: usize| &v[t * 72..(t + 1) * 72];
+        (121..1319)
+            .map(|t| {
+                (0..72)
+                    .map(|i| (frame(t + 1)[i] - 2.0 * frame(t)[i] + frame(t - 1)[i]).abs())
+                    .sum::<f64>()
+            })
+            .sum::<f64>()
+    };
+    let paper = d.path().join("decode-bin");
+    sample(
+        &straight,
+        &paper,
+        &["--sample-seed", "1", "--decode", "bin"],
+    );
+    assert_eq!(read(&paper), read(&out), "bin is the run's decoding");
+    for decode in ["subbin", "coherent", "mean"] {
+        let dir = d.path().join(format!("decode-{decode}"));
+        let text = sample(&straight, &dir, &["--sample-seed", "1", "--decode", decode]);
+        assert!(text.contains("120 seed + 1200 generated frames"), "{text}");
+        if decode != "subbin" {
+            assert!(
+                accel(&dir) < accel(&paper),
+                "{decode}: {} vs {}",
+                accel(&dir),
+                accel(&paper)
+            );
+        }
+    }
+    // A coarser model grid (20 fps) still dances 1200 frames at 60 fps.
+    let coarse = d.path().join("coarse");
+    run_ok(train(&data, &coarse, 3).args(["--set", "tsmt.frame_step=3"]));
+    let dir = d.path().join("decode-coarse");
+    let text = sample(&coarse, &dir, &["--decode", "coherent"]);
+    assert!(text.contains("120 seed + 1200 generated frames"), "{text}");
+    // A decoding that does not exist, or one asked of another family: one line, nothing written.
+    let bad = d.path().join("bad");
+    let mut c = qean();
+    c.arg("sample")
+        .arg("--run")
+        .arg(&straight)
+        .arg("--music")
+        .arg(vibe_ace())
+        .args(["--decode", "smooth", "--out"])
+        .arg(&bad);
+    assert_clean_failure(
+        &mut c,
+        "unknown TSMT decoding `smooth`: expected one of bin, subbin, coherent, mean",
+    );
+    assert!(!bad.exists());
+
     // Checkpoint-mode evaluation: the TSMT paper's keys in the report.
     let report = run_ok(
         qean()

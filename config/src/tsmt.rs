@@ -59,6 +59,70 @@ pub enum AudioStreams {
     Split,
 }
 
+/// How a sampled frame's bins become coordinates (docs/tsmt.md, "Decoding"). `bin` is the paper's
+/// (SPEC §11.2 and §11.8); the others are ours, against the jitter of independent draws and of the
+/// bins themselves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TsmtDecode {
+    /// Every coordinate draws its own bin and takes the bin's centre (the paper).
+    #[default]
+    Bin,
+    /// Bins drawn as the paper draws them; each coordinate takes the mean of its distribution over the
+    /// drawn bin and `subbin_radius` bins on each side (sub-bin resolution, the same tokens).
+    Subbin,
+    /// One uniform per frame shared by every coordinate, wandering smoothly in time (a reflected random
+    /// walk over [0, 1) that crosses its range in about `coherent_seconds`), read through each
+    /// coordinate's distribution as a continuous quantile (linear inside a bin); the token fed back is
+    /// the bin it falls in.
+    Coherent,
+    /// The mean of each coordinate's distribution (deterministic); the token fed back is its bin.
+    Mean,
+}
+
+impl TsmtDecode {
+    /// Every decoding's name, as `--decode` and `tsmt.decode` spell it.
+    pub const NAMES: [&'static str; 4] = ["bin", "subbin", "coherent", "mean"];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            TsmtDecode::Bin => "bin",
+            TsmtDecode::Subbin => "subbin",
+            TsmtDecode::Coherent => "coherent",
+            TsmtDecode::Mean => "mean",
+        }
+    }
+}
+
+impl std::str::FromStr for TsmtDecode {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "bin" => Ok(TsmtDecode::Bin),
+            "subbin" => Ok(TsmtDecode::Subbin),
+            "coherent" => Ok(TsmtDecode::Coherent),
+            "mean" => Ok(TsmtDecode::Mean),
+            _ => Err(format!(
+                "unknown TSMT decoding `{s}`: expected one of {}",
+                Self::NAMES.join(", ")
+            )),
+        }
+    }
+}
+
+/// How a coarse model's frames (`frame_step` > 1) are brought back to 60 fps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TsmtUpsample {
+    /// The uniform cubic B-spline with the sampled frames as control points: smooth acceleration, near
+    /// the frames rather than through them.
+    #[default]
+    Bspline,
+    /// Catmull–Rom interpolation through the sampled frames.
+    CatmullRom,
+}
+
 /// Inverse kinematics from positions to SMPL rotations (SPEC §11.3).
 pub use qean_motion::ik::IkMode;
 
@@ -111,6 +175,23 @@ pub struct TsmtConfig {
     pub top_k: usize,
     /// Frames dropped at once when the context is full (1 = the reference).
     pub slide_stride: usize,
+    /// Training targets spread as a Gaussian of this SD (in bins) over neighbouring bins (0: one bin, the
+    /// paper's cross-entropy).
+    pub target_sigma: f64,
+    /// Noise on the training inputs: each input token moved by a rounded N(0, σ²) number of bins (0: the
+    /// paper's clean teacher forcing).
+    pub input_noise: f64,
+    /// How sampled bins become coordinates (`bin`: the paper's).
+    pub decode: TsmtDecode,
+    /// `subbin`: bins averaged on each side of the drawn one.
+    pub subbin_radius: usize,
+    /// `coherent`: seconds in which the shared quantile crosses its range.
+    pub coherent_seconds: f64,
+    /// The model steps every `frame_step` frames of the 60 fps data (1: every frame, as SPEC §11.1 maps the
+    /// paper; 3: 20 fps, near the paper's own 24 fps); sampled frames are interpolated back to 60 fps.
+    pub frame_step: usize,
+    /// How frames sampled at the coarse rate become 60 fps frames.
+    pub upsample: TsmtUpsample,
     /// Ground-truth seed frames before generation.
     pub seed_frames: usize,
     /// The LR starts at this factor of `schedule.initial` (0.1: the tsmt-fork helper).
@@ -151,6 +232,13 @@ impl TsmtConfig {
             temperature: 1.0,
             top_k: 0,
             slide_stride: 1,
+            target_sigma: 0.0,
+            input_noise: 0.0,
+            decode: TsmtDecode::Bin,
+            subbin_radius: 3,
+            coherent_seconds: 2.0,
+            frame_step: 1,
+            upsample: TsmtUpsample::Bspline,
             seed_frames: 120,
             lr_start_factor: 1.0,
             ik: IkMode::Swing,
@@ -196,12 +284,25 @@ impl TsmtConfig {
             ("audio_layers", self.audio_layers),
             ("d_out", self.d_out),
             ("slide_stride", self.slide_stride),
+            ("frame_step", self.frame_step),
             ("seed_frames", self.seed_frames),
         ];
         for (key, value) in positive {
             if value == 0 {
                 return Err(format!("tsmt.{key} must be positive"));
             }
+        }
+        if self.frame_step > 10 {
+            return Err(format!(
+                "tsmt.frame_step must be at most 10 (6 fps), got {}",
+                self.frame_step
+            ));
+        }
+        if self.frame_step > 1 && self.root_mode == RootMode::Delta {
+            return Err(
+                "tsmt.frame_step > 1 needs tsmt.root_mode = \"drop\" (the root deltas are per 60 fps frame)"
+                    .into(),
+            );
         }
         if self.n_bins > u16::MAX as usize {
             return Err(format!("tsmt.n_bins must be at most {}", u16::MAX));
@@ -222,6 +323,24 @@ impl TsmtConfig {
             return Err(format!(
                 "tsmt.temperature must be ≥ 0, got {}",
                 self.temperature
+            ));
+        }
+        if !(self.target_sigma.is_finite() && (0.0..=50.0).contains(&self.target_sigma)) {
+            return Err(format!(
+                "tsmt.target_sigma must be in [0, 50] bins, got {}",
+                self.target_sigma
+            ));
+        }
+        if !(self.input_noise.is_finite() && (0.0..=50.0).contains(&self.input_noise)) {
+            return Err(format!(
+                "tsmt.input_noise must be in [0, 50] bins, got {}",
+                self.input_noise
+            ));
+        }
+        if !(self.coherent_seconds.is_finite() && self.coherent_seconds > 0.0) {
+            return Err(format!(
+                "tsmt.coherent_seconds must be positive, got {}",
+                self.coherent_seconds
             ));
         }
         if !(self.lr_start_factor.is_finite() && self.lr_start_factor > 0.0) {
@@ -279,5 +398,18 @@ mod tests {
             TsmtConfig::tiny()
         );
         assert!(toml::from_str::<TsmtConfig>("windw = 3").is_err());
+        // Decodings by name, in the config and on the command line.
+        for name in TsmtDecode::NAMES {
+            let d: TsmtDecode = name.parse().unwrap();
+            assert_eq!(d.name(), name);
+            let c: TsmtConfig = toml::from_str(&format!("decode = \"{name}\"")).unwrap();
+            assert_eq!(c.decode, d);
+        }
+        let e = "smooth".parse::<TsmtDecode>().unwrap_err();
+        assert!(
+            e.contains("`smooth`") && e.contains("bin, subbin, coherent, mean"),
+            "{e}"
+        );
+        assert!(toml::from_str::<TsmtConfig>("decode = \"smooth\"").is_err());
     }
 }

@@ -6,8 +6,9 @@
 use std::path::Path;
 
 use qean_audio::delta::tsmt_audio;
-use qean_config::tsmt::TsmtConfig;
+use qean_config::tsmt::{TsmtConfig, TsmtDecode};
 use qean_io::error::{Error, Result};
+use qean_models::tsmt::coarse::{upsample, Grid};
 use qean_models::tsmt::sample::{generate as sample_tokens, TsmtAudio, TsmtSampling};
 use qean_models::tsmt::{coords_to_joints, pose_coords, Bins};
 use qean_motion::fk::FkRoot;
@@ -22,23 +23,29 @@ use crate::generate::{GenerateOptions, Generated, Song};
 
 /// The sampling settings of a TSMT run with `opts`' overrides.
 pub fn sampling(t: &TsmtConfig, opts: &GenerateOptions) -> TsmtSampling {
-    sampling_with(t, opts.temperature, opts.top_k, opts.sample_seed)
+    sampling_with(
+        t,
+        opts.temperature,
+        opts.top_k,
+        opts.decode,
+        opts.sample_seed,
+    )
 }
 
-/// The run's sampling settings with a temperature, top-k and draw seed.
+/// The run's sampling settings with a temperature, top-k, decoding (None: the run's) and draw seed.
 pub fn sampling_with(
     t: &TsmtConfig,
     temperature: Option<f64>,
     top_k: Option<usize>,
+    decode: Option<TsmtDecode>,
     seed: u64,
 ) -> TsmtSampling {
+    let run = TsmtSampling::of_config(t, seed);
     TsmtSampling {
-        temperature: temperature.unwrap_or(t.temperature),
-        top_k: top_k.unwrap_or(t.top_k),
-        window: t.window,
-        slide_stride: t.slide_stride,
-        seed,
-        cache: true,
+        temperature: temperature.unwrap_or(run.temperature),
+        top_k: top_k.unwrap_or(run.top_k),
+        decode: decode.unwrap_or(run.decode),
+        ..run
     }
 }
 
@@ -51,14 +58,32 @@ pub fn run_bins(ck: &Checkpoint) -> Result<Bins> {
         .ok_or_else(|| Error::at(&ck.dir, "the TSMT checkpoint's config has no bins"))
 }
 
-/// The dance of one row: the seed motion as given, then the generated tokens decoded, rooted and
-/// turned into rotations by IK.
-pub fn decode_dance(t: &TsmtConfig, bins: &Bins, seed: &Motion, tokens: &[u16]) -> Motion {
+/// The dance of one row: the seed motion as given, then `frames` generated frames from the rollout's
+/// positions (in bin units, [`qean_models::tsmt::sample::Rollout`], on `grid`: every frame when its step is
+/// 1) decoded, interpolated to 60 fps, rooted and turned into rotations by IK.
+pub fn decode_dance(
+    t: &TsmtConfig,
+    bins: &Bins,
+    seed: &Motion,
+    (positions, grid): (&[f64], &Grid),
+    frames: usize,
+) -> Motion {
     let n = t.coords();
-    let generated = &tokens[seed.frames * n..];
+    let coords = bins.decode_positions(positions);
+    let real = if grid.step == 1 {
+        coords[seed.frames * n..(seed.frames + frames) * n].to_vec()
+    } else {
+        upsample(
+            grid,
+            &coords,
+            n,
+            (seed.frames, seed.frames + frames),
+            t.upsample,
+        )
+    };
     let seed_joints = seed.joints(FkRoot::Smpl);
     let start = seed_joints[(seed.frames - 1) * NUM_JOINTS];
-    let joints = coords_to_joints(&bins.decode(generated), t.root_mode, start);
+    let joints = coords_to_joints(&real, t.root_mode, start);
     let tail = motion_from_joints(&joints, t.ik, FkRoot::Smpl);
     let mut poses = seed.poses.clone();
     poses.extend_from_slice(&tail.poses);
@@ -96,10 +121,19 @@ pub fn sample_motions(
     let bins = run_bins(ck)?;
     let device = qean_models::backend::device(r.backend).map_err(|e| Error::msg(e.to_string()))?;
     let model = qean_train::family::load_checkpoint_model(&TsmtFamily::default(), ck, &device)?;
+    let n = t.coords();
+    // The model's grid: every frame, or every `frame_step`-th ending on the seed's last frame.
+    let seed_frames = r.seeds.first().map_or(1, |s| s.frames);
+    let grid = Grid::ending_at(seed_frames, t.frame_step);
     let seeds: Vec<Vec<u16>> = r
         .seeds
         .iter()
-        .map(|m| bins.encode(&pose_coords(&m.joints(FkRoot::Smpl), t.root_mode)))
+        .map(|m| {
+            grid.rows(
+                &bins.encode(&pose_coords(&m.joints(FkRoot::Smpl), t.root_mode)),
+                n,
+            )
+        })
         .collect();
     let lengths: Vec<usize> = r
         .music
@@ -112,14 +146,17 @@ pub fn sample_motions(
         .iter()
         .map(|(data, frames)| {
             let (mfcc, beats) = tsmt_audio(data, *frames);
-            TsmtAudio {
+            grid.audio(&TsmtAudio {
                 mfcc,
                 beats,
                 frames: *frames,
-            }
+            })
         })
         .collect();
-    let longest = lengths.iter().copied().max().unwrap_or(0);
+    // Coarse frames up to one at or after each dance's last frame.
+    let coarse_seed = grid.count(seed_frames);
+    let steps = |l: usize| grid.count(seed_frames + l + grid.step - 1) - coarse_seed;
+    let longest = lengths.iter().map(|&l| steps(l)).max().unwrap_or(0);
     let rows = sample_tokens(
         &model,
         &device,
@@ -130,12 +167,14 @@ pub fn sample_motions(
         progress,
         None,
     );
-    let n = t.coords();
     Ok(rows
         .iter()
         .zip(r.seeds)
         .zip(&lengths)
-        .map(|((tokens, seed), &l)| decode_dance(&t, &bins, seed, &tokens[..(seed.frames + l) * n]))
+        .map(|((rollout, seed), &l)| {
+            let used = &rollout.positions[..(coarse_seed + steps(l)) * n];
+            decode_dance(&t, &bins, seed, (used, &grid), l)
+        })
         .collect())
 }
 

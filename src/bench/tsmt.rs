@@ -100,12 +100,8 @@ fn rollout_fps(
         })
         .collect();
     let opts = TsmtSampling {
-        temperature: t.temperature,
-        top_k: t.top_k,
-        window: t.window,
-        slide_stride: t.slide_stride,
-        seed: 0,
         cache,
+        ..TsmtSampling::of_config(t, 0)
     };
     let start = Instant::now();
     let out = generate(

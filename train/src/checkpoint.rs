@@ -276,6 +276,13 @@ impl Checkpoint {
                 ik: Default::default(),
                 dropout: 0.0,
                 windows: Default::default(),
+                // Training recipe and sampling keys: the same weights either way.
+                target_sigma: 0.0,
+                input_noise: 0.0,
+                decode: Default::default(),
+                subbin_radius: 0,
+                coherent_seconds: 0.0,
+                upsample: Default::default(),
                 ..t
             })
         };

@@ -15,7 +15,7 @@ use qean_audio::delta::{tsmt_audio, TSMT_MFCC_DIM};
 use qean_config::run::RunConfig;
 use qean_config::tsmt::{RootMode, TsmtConfig, WindowMode};
 use qean_io::error::{Error, Result};
-use qean_models::tsmt::loss::masked_cross_entropy;
+use qean_models::tsmt::loss::{masked_cross_entropy, smoothed_cross_entropy};
 use qean_models::tsmt::{pose_coords, Bins, Tsmt, TsmtInput};
 use qean_motion::fk::FkRoot;
 use qean_motion::motion::{Layout, Motion};
@@ -62,6 +62,55 @@ pub fn fit_bins(ds: &Dataset, split: Split, t: &TsmtConfig) -> Result<Bins> {
         t.bins_mode,
     )
     .map_err(Error::msg)
+}
+
+/// `tsmt.frame_step` > 1: every sequence's token rows and music rows (MFCC + Δ, beat) at every `step`-th
+/// frame from frame 0 ([`qean_models::tsmt::coarse::Grid`]), so windows are drawn at the coarse rate.
+pub fn coarsened(set: SequenceSet, step: usize) -> SequenceSet {
+    use qean_models::tsmt::coarse::Grid;
+    use qean_models::tsmt::sample::TsmtAudio;
+    let grid = Grid { step, offset: 0 };
+    let d = set.dim;
+    let mut music: std::collections::HashMap<*const Vec<f32>, Arc<Vec<f32>>> = Default::default();
+    let sequences = set
+        .sequences
+        .iter()
+        .map(|seq| {
+            let audio = music
+                .entry(Arc::as_ptr(&seq.audio))
+                .or_insert_with(|| {
+                    let rows = &seq.audio[..seq.audio_frames * AUDIO_COLS];
+                    let full = TsmtAudio {
+                        mfcc: rows
+                            .chunks_exact(AUDIO_COLS)
+                            .flat_map(|r| r[..TSMT_MFCC_DIM].iter().copied())
+                            .collect(),
+                        beats: rows
+                            .chunks_exact(AUDIO_COLS)
+                            .map(|r| r[TSMT_MFCC_DIM] as u8)
+                            .collect(),
+                        frames: seq.audio_frames,
+                    };
+                    let c = grid.audio(&full);
+                    Arc::new(
+                        c.mfcc
+                            .chunks_exact(TSMT_MFCC_DIM)
+                            .zip(&c.beats)
+                            .flat_map(|(r, &b)| r.iter().copied().chain([f32::from(b)]))
+                            .collect(),
+                    )
+                })
+                .clone();
+            Sequence {
+                name: seq.name.clone(),
+                motion: grid.rows(&seq.motion[..seq.motion_frames * d], d),
+                motion_frames: grid.count(seq.motion_frames),
+                audio_frames: grid.count(seq.audio_frames),
+                audio,
+            }
+        })
+        .collect();
+    SequenceSet { sequences, ..set }
 }
 
 /// `tsmt.windows = "segments"` (the reference's training unit): every sequence cut into blocks of
@@ -127,6 +176,25 @@ pub fn tensors(batch: &Batch, device: &Device) -> (TsmtInput, Tensor<3, Int>) {
         device,
     );
     (input, targets)
+}
+
+/// Moves every token (bins held as f32; the padding class `n_bins` stays) by round(σ·z) bins, z ~ N(0, 1)
+/// from a stream seeded by `seed`, clamped to the bins: inputs like the model's own imperfect samples, so it
+/// learns to read through frame-to-frame noise instead of passing it on (ours; the paper trains on clean
+/// tokens).
+pub fn jitter_tokens(tokens: &mut [f32], sigma: f64, n_bins: usize, seed: u64) {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x7473_6d74_6e6f_6973);
+    let top = (n_bins - 1) as f64;
+    for k in tokens.iter_mut() {
+        if *k as usize >= n_bins {
+            continue;
+        }
+        // Box–Muller: one normal from two uniforms.
+        let (u1, u2): (f64, f64) = (rng.random(), rng.random());
+        let z = (-2.0 * (1.0 - u1).ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+        *k = (*k as f64 + (sigma * z).round()).clamp(0.0, top) as f32;
+    }
 }
 
 /// Teacher-forced validation loss (SPEC §11.7 step 5): the s = 0 window of every sequence, no
@@ -216,22 +284,38 @@ impl Family for TsmtFamily {
                     .collect()
             },
         )?;
+        let set = if t.frame_step > 1 {
+            coarsened(set, t.frame_step)
+        } else {
+            set
+        };
         Ok(if segments { segmented(set) } else { set })
     }
 
+    /// The drawn windows as tensors; with `tsmt.input_noise` each input token first moves by a rounded
+    /// N(0, σ²) number of bins (the targets stay clean).
     fn inputs(
         &self,
         drawn: Batch,
         _model: &Tsmt,
         device: &Device,
-        _ctx: &StepContext,
+        ctx: &StepContext,
     ) -> Self::Inputs {
+        let t = tsmt_of(ctx.config);
+        if t.input_noise > 0.0 {
+            let mut noisy = drawn;
+            jitter_tokens(&mut noisy.motion, t.input_noise, t.n_bins, ctx.rng_seed);
+            return tensors(&noisy, device);
+        }
         tensors(&drawn, device)
     }
 
-    fn loss(&self, model: &Tsmt, (input, targets): Self::Inputs, _config: &RunConfig) -> Tensor<1> {
+    /// The paper's cross-entropy, or against targets spread over neighbouring bins (`tsmt.target_sigma`);
+    /// validation stays the plain cross-entropy either way.
+    fn loss(&self, model: &Tsmt, (input, targets): Self::Inputs, config: &RunConfig) -> Tensor<1> {
         let lengths = input.lengths.clone();
-        masked_cross_entropy(model.forward(input), targets, &lengths)
+        let sigma = tsmt_of(config).target_sigma;
+        smoothed_cross_entropy(model.forward(input), targets, &lengths, sigma)
     }
 
     fn validation_loss(
@@ -284,7 +368,7 @@ mod tests {
             }],
             skipped: vec![],
         };
-        let seg = segmented(set);
+        let seg = segmented(set.clone());
         // Starts 0, 5, ..., 25 (25 + 11 ≤ 40; 30 + 11 > 40).
         let starts: Vec<f32> = seg.sequences.iter().map(|s| s.motion[0]).collect();
         assert_eq!(starts, vec![0.0, 5.0, 10.0, 15.0, 20.0, 25.0]);
@@ -292,5 +376,77 @@ mod tests {
             assert_eq!((s.frames(), spec.starts(s.frames())), (11, 1));
             assert_eq!(s.audio[0], s.motion[0]);
         }
+    }
+
+    #[test]
+    fn a_coarse_set_keeps_every_third_frame_and_every_beat() {
+        let frames = 30;
+        let cols = AUDIO_COLS;
+        let audio: Vec<f32> = (0..frames)
+            .flat_map(|f| {
+                (0..TSMT_MFCC_DIM)
+                    .map(move |k| (f * 100 + k) as f32)
+                    .chain([f32::from(u8::from(f % 7 == 0))])
+            })
+            .collect();
+        let set = SequenceSet {
+            layout: Layout::L219,
+            dim: 2,
+            audio_dim: cols,
+            spec: WindowSpec {
+                motion_len: 4,
+                target_len: 4,
+                target_shift: 1,
+                audio_len: 5,
+            },
+            sequences: vec![Sequence {
+                name: "s".into(),
+                motion: (0..frames * 2).map(|x| (x / 2) as f32).collect(),
+                motion_frames: frames,
+                audio: Arc::new(audio),
+                audio_frames: frames,
+            }],
+            skipped: vec![],
+        };
+        let c = coarsened(set, 3);
+        let s = &c.sequences[0];
+        assert_eq!((s.motion_frames, s.audio_frames), (10, 10));
+        assert_eq!(&s.motion[..6], &[0.0, 0.0, 3.0, 3.0, 6.0, 6.0]);
+        // Coarse frame 2 is real frame 6: its MFCC row, and the beat of frame 7 (within ±1 frame).
+        assert_eq!(s.audio[2 * cols], 600.0);
+        let beats: Vec<f32> = s
+            .audio
+            .chunks_exact(cols)
+            .map(|r| r[TSMT_MFCC_DIM])
+            .collect();
+        assert_eq!(
+            beats,
+            vec![1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0]
+        );
+    }
+
+    #[test]
+    fn input_noise_moves_tokens_within_the_bins_and_leaves_padding() {
+        let n_bins = 300;
+        let clean: Vec<f32> = (0..4000).map(|i| (i % 300) as f32).chain([300.0]).collect();
+        let mut noisy = clean.clone();
+        jitter_tokens(&mut noisy, 2.0, n_bins, 7);
+        assert_eq!(*noisy.last().unwrap(), 300.0, "the padding class stays");
+        assert!(noisy
+            .iter()
+            .all(|&k| k.fract() == 0.0 && (0.0..=300.0).contains(&k)));
+        let moved: Vec<f64> = clean
+            .iter()
+            .zip(&noisy)
+            .filter(|(c, _)| (10.0..290.0).contains(*c))
+            .map(|(c, n)| (n - c) as f64)
+            .collect();
+        let m = moved.len() as f64;
+        let mean = moved.iter().sum::<f64>() / m;
+        let sd = (moved.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / m).sqrt();
+        assert!(mean.abs() < 0.1 && (sd - 2.0).abs() < 0.15, "{mean} {sd}");
+        let mut again = clean.clone();
+        jitter_tokens(&mut again, 2.0, n_bins, 7);
+        assert_eq!(again, noisy, "a function of the seed");
     }
 }

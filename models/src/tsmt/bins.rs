@@ -155,6 +155,16 @@ impl Bins {
             .collect()
     }
 
+    /// Coordinates of frames × dim positions in bin units: lo + pos·w (a token k is at k + ½).
+    pub fn decode_positions(&self, positions: &[f64]) -> Vec<f64> {
+        let n = self.dim();
+        positions
+            .iter()
+            .enumerate()
+            .map(|(i, &pos)| self.lo[i % n] + pos * self.width(i % n))
+            .collect()
+    }
+
     /// Coordinates of frames × dim tokens.
     pub fn decode(&self, tokens: &[u16]) -> Vec<f64> {
         let n = self.dim();
@@ -202,6 +212,11 @@ mod tests {
                     (a - r).abs() <= b.width(i % dim) / 2.0 + 1e-12,
                     "{mode:?} {i}"
                 );
+            }
+            // Positions at the centres decode as the tokens do.
+            let centres: Vec<f64> = b.encode(&x).iter().map(|&k| k as f64 + 0.5).collect();
+            for (p, q) in b.decode_positions(&centres).iter().zip(&back) {
+                assert!((p - q).abs() < 1e-12);
             }
             // Idempotent: decoding and encoding again changes nothing.
             assert_eq!(b.encode(&back), b.encode(&x));

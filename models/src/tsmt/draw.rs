@@ -1,67 +1,16 @@
 //! Drawing one bin from a coordinate's logits (SPEC §11.8 step 3): temperature, optional top-k, and
 //! inverse-CDF sampling with a given uniform u, so a rollout is reproducible from its RNG alone.
 
+use super::decode::{argmax, quantile, weights};
+
 /// The bin drawn from `logits` (one coordinate's C values) with temperature `tau` (0 = argmax),
 /// `top_k` (0 = all bins) and u ∈ [0, 1): the smallest k with cumsum(p)[k] > u·Σp, where
 /// p = softmax(logits/τ) over the kept bins. Ties in argmax and top-k go to the lower index.
 pub fn draw(logits: &[f32], tau: f64, top_k: usize, u: f64) -> usize {
-    let argmax = || {
-        logits
-            .iter()
-            .enumerate()
-            .fold((0, f32::NEG_INFINITY), |(bi, bv), (i, &v)| {
-                if v > bv {
-                    (i, v)
-                } else {
-                    (bi, bv)
-                }
-            })
-            .0
-    };
     if tau == 0.0 || logits.len() == 1 {
-        return argmax();
+        return argmax(logits);
     }
-    let mut keep = vec![true; logits.len()];
-    if top_k > 0 && top_k < logits.len() {
-        // Rank by value (descending), lower index first among equals; keep the first k.
-        let mut order: Vec<usize> = (0..logits.len()).collect();
-        order.sort_by(|&a, &b| logits[b].total_cmp(&logits[a]).then(a.cmp(&b)));
-        keep.fill(false);
-        for &i in &order[..top_k] {
-            keep[i] = true;
-        }
-    }
-    let max = logits
-        .iter()
-        .zip(&keep)
-        .filter(|(_, &k)| k)
-        .map(|(&v, _)| v as f64)
-        .fold(f64::NEG_INFINITY, f64::max);
-    let p: Vec<f64> = logits
-        .iter()
-        .zip(&keep)
-        .map(|(&v, &k)| {
-            if k {
-                ((v as f64 - max) / tau).exp()
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    let total: f64 = p.iter().sum();
-    let target = u * total;
-    let mut cum = 0.0;
-    let mut last_kept = 0;
-    for (i, &pi) in p.iter().enumerate() {
-        if pi > 0.0 {
-            last_kept = i;
-        }
-        cum += pi;
-        if cum > target && pi > 0.0 {
-            return i;
-        }
-    }
-    last_kept
+    quantile(&weights(logits, tau, top_k), u).0
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
-//! TSMT's sampler (SPEC §11.8): seed frames, then one frame at a time, each coordinate drawn from its
-//! own distribution ([`draw`]) with uniforms taken in the order (step, row, coordinate) from one
-//! seeded stream, so a rollout is a function of the model, its inputs and the seed.
+//! TSMT's sampler (SPEC §11.8): seed frames, then one frame at a time, each coordinate read from its
+//! own distribution ([`read`]: the paper's draw of a bin, or another decoding) with uniforms taken in the
+//! order (step, row, coordinate) from one seeded stream (`coherent`: one smooth quantile per row instead),
+//! so a rollout is a function of the model, its inputs and the seed.
 //!
 //! The context is the last frames fed, at positions 1..; when it would pass W frames it keeps the
 //! last W − S (S = `slide_stride`) plus the newest and is renumbered. With the KV cache a step runs
@@ -8,10 +9,11 @@
 //! the whole context (the reference's loop). Both give the same tokens.
 
 use burn::tensor::{Device, Int, Tensor, TensorData};
+use qean_config::tsmt::{TsmtConfig, TsmtDecode};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::draw::draw;
+use super::decode::{read, Reading, SmoothQuantile};
 use super::model::{Tsmt, TsmtCache, TsmtInput, BEAT_PAD, MFCC_DIM};
 
 /// One music as TSMT hears it: `frames` rows of MFCC + Δ (26 values) and a beat flag per frame.
@@ -37,12 +39,52 @@ pub struct TsmtSampling {
     pub seed: u64,
     /// Use the KV cache (false: recompute the whole context every step).
     pub cache: bool,
+    /// How each coordinate's distribution becomes a bin and a value (`Bin`: the paper's).
+    pub decode: TsmtDecode,
+    /// `Subbin`: bins on each side of the drawn one.
+    pub subbin_radius: usize,
+    /// `Coherent`: the shortest period of the shared quantile, in frames.
+    pub coherent_frames: f64,
+}
+
+impl TsmtSampling {
+    /// The sampling a run's `[tsmt]` table asks for, with the KV cache and the draws' `seed`.
+    pub fn of_config(t: &TsmtConfig, seed: u64) -> TsmtSampling {
+        TsmtSampling {
+            temperature: t.temperature,
+            top_k: t.top_k,
+            window: t.window,
+            slide_stride: t.slide_stride,
+            seed,
+            cache: true,
+            decode: t.decode,
+            subbin_radius: t.subbin_radius,
+            coherent_frames: t.coherent_seconds * qean_motion::motion::FPS / t.frame_step as f64,
+        }
+    }
+
+    fn reading(&self) -> Reading {
+        Reading {
+            temperature: self.temperature,
+            top_k: self.top_k,
+            decode: self.decode,
+            subbin_radius: self.subbin_radius,
+        }
+    }
+}
+
+/// One row's rollout: its tokens (seed included, frames × n) and each coordinate's position in bin units
+/// (the value is lo + pos·w: a bin's centre k + ½ for the seed and the paper's decoding).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rollout {
+    pub tokens: Vec<u16>,
+    pub positions: Vec<f64>,
 }
 
 /// Generates `frames` frames after each row's seed tokens (`seeds[b]`: seed frames × n, every row
 /// the same length), hearing `audio[b]` (the row for frame f is audio frame f + 1; past its end,
-/// padding). Returns each row's tokens, seed included. `progress(done, frames)` is called after
-/// every step; `record` receives every step's logits [B, n, C] (tests).
+/// padding). Returns each row's tokens and positions, seed included. `progress(done, frames)` is called
+/// after every step; `record` receives every step's logits [B, n, C] (tests).
 #[allow(clippy::too_many_arguments)]
 pub fn generate(
     model: &Tsmt,
@@ -53,7 +95,7 @@ pub fn generate(
     opts: &TsmtSampling,
     progress: &mut dyn FnMut(usize, usize),
     mut record: Option<&mut Vec<Vec<f32>>>,
-) -> Vec<Vec<u16>> {
+) -> Vec<Rollout> {
     let n = model.coords();
     let rows = seeds.len();
     assert_eq!(audio.len(), rows, "one music per seed");
@@ -65,7 +107,19 @@ pub fn generate(
         "every seed has the same length"
     );
     let mut out: Vec<Vec<u16>> = seeds.to_vec();
+    let mut positions: Vec<Vec<f64>> = seeds
+        .iter()
+        .map(|s| s.iter().map(|&k| k as f64 + 0.5).collect())
+        .collect();
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+    let shared: Vec<SmoothQuantile> = if opts.decode == TsmtDecode::Coherent {
+        (0..rows)
+            .map(|_| SmoothQuantile::new(opts.coherent_frames, || rng.random()))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let reading = opts.reading();
     let mut start = seed_len.saturating_sub(opts.window);
     let mut cache = TsmtCache::default();
     let mut fed = start;
@@ -96,9 +150,12 @@ pub fn generate(
             .try_to_vec::<f32>()
             .expect("float logits");
         for (b, row) in last.chunks_exact(n * c).enumerate() {
+            let frame_u = shared.get(b).map(|q| q.at(g - seed_len));
             for coordinate in row.chunks_exact(c) {
-                let u: f64 = rng.random();
-                out[b].push(draw(coordinate, opts.temperature, opts.top_k, u) as u16);
+                let u: f64 = frame_u.unwrap_or_else(|| rng.random());
+                let (k, pos) = read(coordinate, &reading, u);
+                out[b].push(k as u16);
+                positions[b].push(pos);
             }
         }
         if let Some(r) = record.as_deref_mut() {
@@ -106,7 +163,10 @@ pub fn generate(
         }
         progress(g + 1 - seed_len, frames);
     }
-    out
+    out.into_iter()
+        .zip(positions)
+        .map(|(tokens, positions)| Rollout { tokens, positions })
+        .collect()
 }
 
 /// Tokens, MFCC rows and beats of frames `from..to` of every row.
@@ -145,7 +205,21 @@ fn inputs(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use qean_config::tsmt::TsmtConfig;
+
+    /// The paper's sampling settings around what a test sets.
+    fn paper() -> TsmtSampling {
+        TsmtSampling {
+            temperature: 1.0,
+            top_k: 0,
+            window: 64,
+            slide_stride: 1,
+            seed: 0,
+            cache: true,
+            decode: TsmtDecode::Bin,
+            subbin_radius: 3,
+            coherent_frames: 120.0,
+        }
+    }
 
     fn music(frames: usize, salt: usize) -> TsmtAudio {
         TsmtAudio {
@@ -185,6 +259,7 @@ mod tests {
                 slide_stride: stride,
                 seed: 11,
                 cache: true,
+                ..paper()
             };
             let (mut cached, mut full) = (Vec::new(), Vec::new());
             let a = generate(
@@ -217,9 +292,11 @@ mod tests {
                 .fold(0.0f32, f32::max);
             println!("stride {stride}: worst logit difference {worst:e}");
             assert!(worst <= 1e-5, "stride {stride}: {worst}");
-            assert_eq!(a[0].len(), 140 * n);
+            assert_eq!(a[0].tokens.len(), 140 * n);
             // The rollout moves: generated frames are not all the last seed frame.
-            assert!(a[0][40 * n..].chunks(n).any(|f| f != &seeds[0][39 * n..]));
+            assert!(a[0].tokens[40 * n..]
+                .chunks(n)
+                .any(|f| f != &seeds[0][39 * n..]));
         }
     }
 
@@ -241,6 +318,7 @@ mod tests {
             slide_stride: 1,
             seed: 3,
             cache: true,
+            ..paper()
         };
         let a = generate(
             &model,
