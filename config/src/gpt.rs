@@ -57,6 +57,11 @@ pub struct GptConfig {
     /// Sampling: top-k (1 = greedy, Bailando; 0 = the full distribution) and temperature.
     pub top_k: usize,
     pub temperature: f64,
+    /// Sampling, ours: the logits of codes among the last `repetition_window` tokens are divided by this
+    /// (multiplied when negative) before picking, so the dance does not lock onto one still code
+    /// (1 = off, the paper's picking; CTRL's repetition penalty).
+    pub repetition_penalty: f64,
+    pub repetition_window: usize,
 }
 
 impl Default for GptConfig {
@@ -89,6 +94,8 @@ impl GptConfig {
             seed_tokens: 15,
             top_k: 1,
             temperature: 1.0,
+            repetition_penalty: 1.0,
+            repetition_window: 8,
         }
     }
 
@@ -163,6 +170,12 @@ impl GptConfig {
             return Err(format!(
                 "gpt.temperature must be positive, got {}",
                 self.temperature
+            ));
+        }
+        if !(self.repetition_penalty.is_finite() && self.repetition_penalty >= 1.0) {
+            return Err(format!(
+                "gpt.repetition_penalty must be ≥ 1 (1 = off), got {}",
+                self.repetition_penalty
             ));
         }
         if self.text_every == 0 {

@@ -7,6 +7,9 @@
 //!
 //! - `input_noise`: Gaussian noise of this σ on the input motion window (model units: rotation
 //!   matrix entries and metres), so the model learns to correct a drifting input;
+//! - `gain_db`: every input window's music as if played up to this many dB louder or softer (a
+//!   shift of MFCC 0 alone: the other columns do not depend on the level), so that a song mastered
+//!   louder than the training music is heard as music and not as something new;
 //! - `audio_shift`: a random offset per input window and music feature column, so that the
 //!   model does not tie its motion to the exact feature levels of the few training recordings;
 //! - `rollout_frames`, `rollout_mode`, `rollout_prob`, `rollout_ramp`: auto-conditioning /
@@ -19,8 +22,10 @@
 //! - `ensemble`, `ensemble_decay`: at inference, each frame the weighted mean of the predictions
 //!   the last `ensemble` passes made for it (temporal ensembling; 1 = token 0 only, mint);
 //! - `seam_frames`: at inference, the jump between the seed and the first generated frame
-//!   faded out over this many frames (inertialization, `qean_motion::seam`);
-//! - `audio_norm`: music features standardised with the training split's statistics;
+//!   faded out over this many frames (inertialization, `qean_motion::seam`; the VQ-VAE + GPT eases
+//!   its decoded joint positions out of the seed's last pose the same way);
+//! - `audio_norm`: music features standardised with the training split's statistics, or each track
+//!   with its own (`per_track`);
 //! - `predict`: future poses (mint) or offsets from the last input frame.
 //!
 //! `base` names a preset of all of them; keys set explicitly (anywhere in an `extends` chain or
@@ -53,6 +58,11 @@ pub enum AudioNorm {
     /// Each column standardised with the training split's mean and SD (`audio_mean`,
     /// `audio_std`, computed when training starts and stored in the run's config).
     Standardize,
+    /// Each column standardised with the track's own mean and SD over the whole track, in training
+    /// and at inference alike: a song louder, brighter or busier than the training music is heard
+    /// at the level the model knows (docs/freezing.md, "Songs in general"). A constant column gets
+    /// SD 1.
+    PerTrack,
 }
 
 /// What the output tokens are trained to predict.
@@ -91,6 +101,10 @@ pub struct RecipeConfig {
     /// standard deviations when standardised; 0 = off): a window's music as if from another
     /// recording, whose feature levels differ.
     pub audio_shift: f64,
+    /// Loudness augmentation: each input window's music at a gain drawn uniformly from ±`gain_db`
+    /// dB (0 = off). A gain of g dB adds √128·g to MFCC 0 (the DCT's first row over 128 mel bands in
+    /// dB) and leaves every other column as it was (onsets and chroma are level-free).
+    pub gain_db: f64,
     /// Frames at the end of the input window replaced by the model's own predictions (0 = off).
     pub rollout_frames: usize,
     pub rollout_mode: RolloutMode,
@@ -128,6 +142,7 @@ impl RecipeConfig {
                 base,
                 input_noise: 0.0,
                 audio_shift: 0.0,
+                gain_db: 0.0,
                 rollout_frames: 0,
                 rollout_mode: RolloutMode::Block,
                 rollout_prob: 0.0,
@@ -161,6 +176,9 @@ impl RecipeConfig {
         if self.input_noise > 0.0 {
             on.push(format!("input noise {}", self.input_noise));
         }
+        if self.gain_db > 0.0 {
+            on.push(format!("music at ±{} dB", self.gain_db));
+        }
         if self.audio_shift > 0.0 {
             on.push(format!("music shift {}", self.audio_shift));
         }
@@ -183,8 +201,10 @@ impl RecipeConfig {
         if self.feedback_project {
             on.push("feedback projected".into());
         }
-        if self.audio_norm == AudioNorm::Standardize {
-            on.push("music standardised".into());
+        match self.audio_norm {
+            AudioNorm::Standardize => on.push("music standardised".into()),
+            AudioNorm::PerTrack => on.push("music standardised per track".into()),
+            AudioNorm::None => {}
         }
         if self.predict == Predict::Offset {
             on.push("offsets predicted".into());
@@ -224,6 +244,15 @@ impl RecipeConfig {
 
     /// Music features of `frames × dim` as the model sees them (standardised when configured).
     pub fn model_audio(&self, mut data: Vec<f32>, dim: usize) -> Vec<f32> {
+        if self.audio_norm == AudioNorm::PerTrack {
+            let (mean, std) = track_stats(&data, dim);
+            for row in data.chunks_exact_mut(dim) {
+                for (k, x) in row.iter_mut().enumerate() {
+                    *x = ((*x as f64 - mean[k]) / std[k]) as f32;
+                }
+            }
+            return data;
+        }
         if self.audio_norm == AudioNorm::Standardize && self.audio_mean.len() == dim {
             for row in data.chunks_exact_mut(dim) {
                 for (k, x) in row.iter_mut().enumerate() {
@@ -240,6 +269,7 @@ impl RecipeConfig {
             && self.predict == Predict::Pose
             && self.input_noise == 0.0
             && self.audio_shift == 0.0
+            && self.gain_db == 0.0
             && (self.rollout_frames == 0 || self.rollout_prob == 0.0)
             && self.velocity_loss == 0.0
             && self.accel_loss == 0.0
@@ -274,6 +304,7 @@ impl RecipeConfig {
         let nonneg = [
             ("recipe.input_noise", self.input_noise),
             ("recipe.audio_shift", self.audio_shift),
+            ("recipe.gain_db", self.gain_db),
             ("recipe.velocity_loss", self.velocity_loss),
             ("recipe.accel_loss", self.accel_loss),
         ];
@@ -370,6 +401,7 @@ struct RecipeFile {
     base: Option<RecipeBase>,
     input_noise: Option<f64>,
     audio_shift: Option<f64>,
+    gain_db: Option<f64>,
     rollout_frames: Option<usize>,
     rollout_mode: Option<RolloutMode>,
     rollout_prob: Option<f64>,
@@ -394,6 +426,7 @@ impl<'de> Deserialize<'de> for RecipeConfig {
             base: b.base,
             input_noise: f.input_noise.unwrap_or(b.input_noise),
             audio_shift: f.audio_shift.unwrap_or(b.audio_shift),
+            gain_db: f.gain_db.unwrap_or(b.gain_db),
             rollout_frames: f.rollout_frames.unwrap_or(b.rollout_frames),
             rollout_mode: f.rollout_mode.unwrap_or(b.rollout_mode),
             rollout_prob: f.rollout_prob.unwrap_or(b.rollout_prob),
@@ -410,6 +443,37 @@ impl<'de> Deserialize<'de> for RecipeConfig {
             seam_frames: f.seam_frames.unwrap_or(b.seam_frames),
         })
     }
+}
+
+/// Per-column mean and SD (ddof 0) of the rows of `data` (`dim` values each); a column with SD below
+/// 1e-6 gets SD 1, so it maps to 0 instead of dividing by zero.
+pub fn track_stats(data: &[f32], dim: usize) -> (Vec<f64>, Vec<f64>) {
+    let rows = (data.len() / dim.max(1)).max(1) as f64;
+    let mut mean = vec![0.0; dim];
+    for row in data.chunks_exact(dim) {
+        for (m, &x) in mean.iter_mut().zip(row) {
+            *m += x as f64;
+        }
+    }
+    mean.iter_mut().for_each(|m| *m /= rows);
+    let mut var = vec![0.0; dim];
+    for row in data.chunks_exact(dim) {
+        for ((v, &x), m) in var.iter_mut().zip(row).zip(&mean) {
+            *v += (x as f64 - m).powi(2);
+        }
+    }
+    let std = var
+        .iter()
+        .map(|v| {
+            let s = (v / rows).sqrt();
+            if s < 1e-6 {
+                1.0
+            } else {
+                s
+            }
+        })
+        .collect();
+    (mean, std)
 }
 
 #[cfg(test)]

@@ -82,6 +82,28 @@ impl Seam {
     }
 }
 
+/// The same easing on joint positions (`frames × 24` points), for decoders that give positions, not
+/// rotations (the VQ-VAE, SPEC §13.8): the gap between the seed's last frame (`seed_last`, 24 points)
+/// and the decoder's version of that frame (`joints` at `last`) is added to every later frame with the
+/// weight of [`weight`], so the first generated frame moves on from the seed by the decoder's own step
+/// and the gap is gone after `frames` frames. Frames up to `last` are left alone.
+pub fn ease_joints(joints: &mut [[f64; 3]], last: usize, seed_last: &[[f64; 3]], frames: usize) {
+    let gap: Vec<[f64; 3]> = (0..24)
+        .map(|j| std::array::from_fn(|a| seed_last[j][a] - joints[last * 24 + j][a]))
+        .collect();
+    for (k, frame) in joints[(last + 1) * 24..].chunks_mut(24).enumerate() {
+        let w = weight(k, frames);
+        if w == 0.0 {
+            break;
+        }
+        for (p, g) in frame.iter_mut().zip(&gap) {
+            for a in 0..3 {
+                p[a] += w * g[a];
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -141,5 +163,30 @@ mod tests {
             seam.apply(&mut same, 0.0, layout);
             assert_eq!(same, first);
         }
+    }
+
+    /// Joint positions: a decoder 5 cm off the seed's last frame, moving 1 cm per frame. Eased over 4
+    /// frames, the first generated frame is the seed plus the decoder's own step, the gap is gone from
+    /// frame 4 on, and the frames up to the seam are untouched.
+    #[test]
+    fn eased_joints_continue_the_seed() {
+        let decoded: Vec<[f64; 3]> = (0..10)
+            .flat_map(|t| (0..24).map(move |j| [0.05 + 0.01 * t as f64, j as f64 * 0.1, 0.0]))
+            .collect();
+        let seed_last: Vec<[f64; 3]> = (0..24).map(|j| [0.02, j as f64 * 0.1, 0.0]).collect();
+        let mut eased = decoded.clone();
+        ease_joints(&mut eased, 2, &seed_last, 4);
+        assert_eq!(eased[..3 * 24], decoded[..3 * 24]);
+        for j in 0..24 {
+            assert!((eased[3 * 24 + j][0] - 0.03).abs() < 1e-12, "{:?}", eased[3 * 24 + j]);
+            for t in 7..10 {
+                assert_eq!(eased[t * 24 + j], decoded[t * 24 + j]);
+            }
+        }
+        let x: Vec<f64> = (3..8).map(|t| eased[t * 24][0]).collect();
+        assert!(x.windows(2).all(|p| p[1] > p[0]), "{x:?}");
+        let mut off = decoded.clone();
+        ease_joints(&mut off, 2, &seed_last, 0);
+        assert_eq!(off, decoded);
     }
 }

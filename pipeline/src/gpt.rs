@@ -31,12 +31,66 @@ pub struct Picking {
     pub top_k: usize,
     pub temperature: f64,
     pub seed: u64,
+    /// Codes among the last `repetition_window` tokens have their logits divided by this (multiplied when
+    /// negative) first; 1 = off.
+    pub repetition_penalty: f64,
+    pub repetition_window: usize,
 }
 
-/// The next code from logits over K + 1 outputs: End (index K) forbidden; greedy takes the first maximum;
-/// otherwise logits/τ, entries below the k-th largest dropped (ties kept), a categorical draw.
-pub fn pick(logits: &[f32], codes: usize, p: &Picking, rng: &mut impl Rng) -> usize {
-    let l = &logits[..codes];
+impl Picking {
+    /// The run's picking (`[gpt]`) with a command line's top-k, temperature and repetition penalty, and
+    /// the draws' seed.
+    pub fn of(g: &GptConfig, o: &PickingOverrides, seed: u64) -> Picking {
+        Picking {
+            top_k: o.top_k.unwrap_or(g.top_k),
+            temperature: o.temperature.unwrap_or(g.temperature),
+            seed,
+            repetition_penalty: o.repetition_penalty.unwrap_or(g.repetition_penalty),
+            repetition_window: g.repetition_window,
+        }
+    }
+}
+
+/// A command line's picking settings (None: the run's).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PickingOverrides {
+    pub top_k: Option<usize>,
+    pub temperature: Option<f64>,
+    pub repetition_penalty: Option<f64>,
+}
+
+/// The logits with the repetition penalty applied to the codes of `recent` (CTRL's: positive logits
+/// divided by θ, negative ones multiplied).
+fn penalised(logits: &[f32], recent: &[usize], theta: f64) -> Vec<f32> {
+    let mut l = logits.to_vec();
+    if theta > 1.0 {
+        let mut seen = vec![false; l.len()];
+        for &c in recent.iter().filter(|&&c| c < l.len()) {
+            seen[c] = true;
+        }
+        for (v, _) in l.iter_mut().zip(&seen).filter(|(_, &s)| s) {
+            *v = if *v > 0.0 {
+                (*v as f64 / theta) as f32
+            } else {
+                (*v as f64 * theta) as f32
+            };
+        }
+    }
+    l
+}
+
+/// The next code from logits over K + 1 outputs after the codes `recent`: End (index K) forbidden; the
+/// repetition penalty on the recent codes; greedy takes the first maximum; otherwise logits/τ, entries
+/// below the k-th largest dropped (ties kept), a categorical draw.
+pub fn pick(
+    logits: &[f32],
+    codes: usize,
+    p: &Picking,
+    recent: &[usize],
+    rng: &mut impl Rng,
+) -> usize {
+    let start = recent.len().saturating_sub(p.repetition_window);
+    let l = &penalised(&logits[..codes], &recent[start..], p.repetition_penalty)[..];
     let best = l.iter().enumerate().fold(
         (0, f32::NEG_INFINITY),
         |b, (i, &v)| if v > b.1 { (i, v) } else { b },
@@ -151,7 +205,8 @@ pub fn sample_tokens(
             .convert::<f32>()
             .try_to_vec()
             .expect("f32");
-        tokens.push(pick(&last, g.codes, picking, &mut rng));
+        let next = pick(&last, g.codes, picking, &tokens, &mut rng);
+        tokens.push(next);
         progress(
             (i + 1 - seed.len()) * g.rate,
             (n_total - seed.len()) * g.rate,
@@ -161,8 +216,9 @@ pub fn sample_tokens(
 }
 
 /// The dance of `tokens`: the seed motion as given, then the decoded frames after it (every token decoded,
-/// the root integrated and continued from the seed's last frame), rotations by IK.
-pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize]) -> Motion {
+/// the root integrated and continued from the seed's last frame, the body eased out of the seed's last pose
+/// over `seam_frames` frames), rotations by IK.
+pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize], seam_frames: usize) -> Motion {
     let c = vq_of(&vq.checkpoint.config);
     let n = tokens.len();
     let mut rows = VqVae::host_rows(&vq.model.decode_tokens(tokens, 1, n));
@@ -179,6 +235,10 @@ pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize]) -> Motion {
             p[k] += shift[k];
         }
     }
+    // The body is off by the same reconstruction error (about 5 cm, one frame: a 2–3 m/s spike at the
+    // seam); `recipe.seam_frames` fades it out (qean_motion::seam).
+    let seed_last = &seed_joints[last..last + 24];
+    qean_motion::seam::ease_joints(&mut joints, seed.frames - 1, seed_last, seam_frames);
     let tail = motion_from_joints(
         &joints[seed.frames * 24..],
         Default::default(),
@@ -197,6 +257,9 @@ pub struct GptRun {
     pub model: Gpt,
     pub genre: Option<(GenreModule, usize)>,
     pub vq: FrozenVq,
+    /// Frames over which the seam between the seed and the decoded dance fades (the run's
+    /// `recipe.seam_frames` unless a command line says otherwise).
+    pub seam_frames: usize,
 }
 
 impl GptRun {
@@ -211,6 +274,7 @@ impl GptRun {
                 model: m.gpt,
                 genre: Some((m.genre, z_dim)),
                 vq,
+                seam_frames: ck.config.recipe.seam_frames,
             });
         }
         let model = qean_train::family::load_checkpoint_model(&GptFamily::default(), ck, &device)?;
@@ -218,6 +282,7 @@ impl GptRun {
             model,
             genre: None,
             vq,
+            seam_frames: ck.config.recipe.seam_frames,
         })
     }
 
@@ -265,7 +330,7 @@ impl GptRun {
             picking,
             progress,
         );
-        let motion = decode_dance(&self.vq, seed, &tokens);
+        let motion = decode_dance(&self.vq, seed, &tokens, self.seam_frames);
         Ok(Some(
             motion.slice(0, (seed.frames + frames).min(motion.frames)),
         ))
@@ -282,15 +347,25 @@ pub fn generate(
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Vec<Generated>> {
     let g = gpt_of(&ck.config);
-    let run = GptRun::load(ck)?;
-    let picking = Picking {
-        top_k: opts.top_k.unwrap_or(g.top_k),
-        temperature: opts.temperature.unwrap_or(g.temperature),
-        seed: opts.sample_seed,
-    };
+    let mut run = GptRun::load(ck)?;
+    run.seam_frames = opts.seam_frames;
+    let picking = Picking::of(
+        g,
+        &PickingOverrides {
+            top_k: opts.top_k,
+            temperature: opts.temperature,
+            repetition_penalty: opts.repetition_penalty,
+        },
+        opts.sample_seed,
+    );
     let mut written = Vec::new();
     for song in songs {
-        let music = (song.features.data.as_slice(), song.features.frames);
+        // Standardised with the run's statistics when it trained so (`recipe.audio_norm`).
+        let features = ck
+            .config
+            .recipe
+            .model_audio(song.features.data.clone(), qean_aistpp::windows::AUDIO_DIM);
+        let music = (features.as_slice(), song.features.frames);
         let Some(motion) =
             run.dance(g, seed, music, opts.frames, &picking, opts.genre, progress)?
         else {
@@ -345,19 +420,45 @@ mod tests {
             top_k: 1,
             temperature: 1.0,
             seed: 0,
+            repetition_penalty: 1.0,
+            repetition_window: 8,
         };
         // End (index 3) has the largest logit but is never picked; ties go to the first maximum.
-        assert_eq!(pick(&[1.0, 2.0, 2.0, 9.0], 3, &greedy, &mut rng), 1);
+        assert_eq!(pick(&[1.0, 2.0, 2.0, 9.0], 3, &greedy, &[], &mut rng), 1);
         // top-2 keeps both tied entries (and only them).
         let top2 = Picking { top_k: 2, ..greedy };
         for _ in 0..50 {
-            let k = pick(&[0.0, 2.0, 2.0, 2.0, 9.0], 4, &top2, &mut rng);
+            let k = pick(&[0.0, 2.0, 2.0, 2.0, 9.0], 4, &top2, &[], &mut rng);
             assert!((1..=3).contains(&k), "{k}");
         }
         let full = Picking { top_k: 0, ..greedy };
         let drawn: std::collections::HashSet<usize> = (0..200)
-            .map(|_| pick(&[0.0, 0.0, 0.0, 50.0], 3, &full, &mut rng))
+            .map(|_| pick(&[0.0, 0.0, 0.0, 50.0], 3, &full, &[], &mut rng))
             .collect();
         assert_eq!(drawn.len(), 3);
+    }
+
+    #[test]
+    fn the_repetition_penalty_steers_greedy_picking_off_recent_codes() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+        let p = Picking {
+            top_k: 1,
+            temperature: 1.0,
+            seed: 0,
+            repetition_penalty: 2.0,
+            repetition_window: 2,
+        };
+        let logits = [3.0f32, 2.0, -1.0, 9.0];
+        // Code 0 (3.0) was just used: 3/2 = 1.5 < 2.0, so code 1 wins.
+        assert_eq!(pick(&logits, 3, &p, &[0], &mut rng), 1);
+        // Outside the window it counts no more.
+        assert_eq!(pick(&logits, 3, &p, &[0, 2, 2], &mut rng), 0);
+        // A negative logit is pushed further down, and θ = 1 is the paper's picking.
+        assert_eq!(penalised(&[-1.0, 1.0], &[0, 1], 2.0), vec![-2.0, 0.5]);
+        let off = Picking {
+            repetition_penalty: 1.0,
+            ..p
+        };
+        assert_eq!(pick(&logits, 3, &off, &[0], &mut rng), 0);
     }
 }

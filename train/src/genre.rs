@@ -252,6 +252,11 @@ impl Family for GenreFamily {
         if let Some(g) = config.gpt.as_mut() {
             g.vqvae_run = vq_run;
         }
+        // The GPT hears the music as it trained on it (its `recipe.audio_norm` and statistics).
+        let heard = &frozen.checkpoint.config.recipe;
+        config.recipe.audio_norm = heard.audio_norm;
+        config.recipe.audio_mean = heard.audio_mean.clone();
+        config.recipe.audio_std = heard.audio_std.clone();
         self.base.prepare(config, dataset, train, resume)?;
         let vq = self
             .base

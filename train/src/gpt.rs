@@ -379,6 +379,16 @@ impl Family for GptFamily {
         );
         self.vq = Some(vq);
         self.texts = self.load_texts(gpt_of(config), dataset, train)?;
+        // `recipe.audio_norm = "standardize"`: a resumed run keeps its statistics, a fresh one fits them.
+        if let Some(ck) = resume.filter(|_| config.recipe.needs_audio_stats()) {
+            config.recipe.audio_mean = ck.config.recipe.audio_mean.clone();
+            config.recipe.audio_std = ck.config.recipe.audio_std.clone();
+        }
+        if config.recipe.needs_audio_stats() {
+            let (mean, std) = crate::data::audio_stats(dataset, train)?;
+            config.recipe.audio_mean = mean;
+            config.recipe.audio_std = std;
+        }
         Ok(())
     }
 
@@ -423,7 +433,8 @@ impl Family for GptFamily {
             let mut rows = vec![g.codes as f32];
             rows.extend(tokens.iter().map(|&t| t as f32));
             let mut audio = vec![0f32; w];
-            audio.extend(music_tokens(&seq.audio, n, g.rate));
+            let features = config.recipe.model_audio(seq.audio.to_vec(), FEATURES);
+            audio.extend(music_tokens(&features, n, g.rate));
             sequences.push(Sequence {
                 name: seq.name.clone(),
                 motion: rows,

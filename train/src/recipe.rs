@@ -18,7 +18,7 @@ use qean_motion::motion::Layout;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use qean_config::recipe::{Predict, RecipeConfig, RolloutMode};
+use qean_config::recipe::{AudioNorm, Predict, RecipeConfig, RolloutMode};
 use qean_config::run::RunConfig;
 
 /// The window lengths the trainer draws for `config`: the model's, with the rollout lead frames
@@ -58,12 +58,16 @@ pub fn model_inputs(
     step: u64,
 ) -> Batch {
     let r = &config.recipe;
-    if r.input_noise == 0.0 && r.audio_shift == 0.0 && r.lead_frames() == 0 {
+    if r.input_noise == 0.0 && r.audio_shift == 0.0 && r.gain_db == 0.0 && r.lead_frames() == 0 {
         drawn
     } else {
         apply(&drawn, config, model, plain, rng_seed, step).0
     }
 }
+
+/// How much MFCC 0 moves per dB of gain: the orthonormal DCT's first row over librosa's 128 mel bands,
+/// 1/√128 each, sums 128 equal dB shifts to √128 (measured on a real recording at −10 dB: −113.13).
+pub const MFCC0_PER_DB: f64 = 11.313_708_498_984_761;
 
 /// The model inputs of a drawn batch under the recipe: a batch with the model's window lengths.
 /// `model` is the training model (rollouts run on its inference copy, without dropout).
@@ -116,6 +120,23 @@ pub fn apply(
         for frame in motion.chunks_exact_mut(d) {
             for x in &mut frame[off..] {
                 *x += (r.input_noise * normal(&mut rng)) as f32;
+            }
+        }
+    }
+
+    if r.gain_db > 0.0 {
+        // A gain of g dB adds √128·g to MFCC 0 (column 1), in the model's units.
+        let unit = match r.audio_norm {
+            AudioNorm::None => 1.0,
+            AudioNorm::Standardize => 1.0 / r.audio_std.get(1).copied().unwrap_or(1.0),
+            // Each track is centred on its own mean: a constant gain cancels.
+            AudioNorm::PerTrack => 0.0,
+        };
+        for window in audio.chunks_exact_mut(al * AUDIO_DIM) {
+            let g = r.gain_db * (2.0 * rng.random::<f64>() - 1.0);
+            let shift = (MFCC0_PER_DB * g * unit) as f32;
+            for row in window.chunks_exact_mut(AUDIO_DIM) {
+                row[1] += shift;
             }
         }
     }
@@ -439,5 +460,54 @@ mod tests {
         let n = shifts.len() as f64;
         let sd = (shifts.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
         assert!((sd - 0.5).abs() < 0.1, "{sd}");
+    }
+
+    #[test]
+    fn a_gain_moves_mfcc0_alone_by_the_same_amount_over_a_window() {
+        let c = config(RecipeConfig {
+            gain_db: 6.0,
+            ..RecipeConfig::default()
+        });
+        let device = Device::flex();
+        let model = DanceModel::new(&c.model, &device);
+        let d = drawn(&c, 16);
+        let (out, _) = apply(&d, &c, &model, &device, 9, 0);
+        assert_eq!(out.motion, d.motion);
+        let al = c.window_spec().audio_len;
+        let mut gains = Vec::new();
+        for (a, b) in out
+            .audio
+            .chunks_exact(al * AUDIO_DIM)
+            .zip(d.audio.chunks_exact(al * AUDIO_DIM))
+        {
+            let first = (a[1] - b[1]) as f64;
+            for (ra, rb) in a.chunks_exact(AUDIO_DIM).zip(b.chunks_exact(AUDIO_DIM)) {
+                for k in 0..AUDIO_DIM {
+                    let shift = (ra[k] - rb[k]) as f64;
+                    if k == 1 {
+                        assert!((shift - first).abs() < 1e-3 * first.abs().max(1.0));
+                    } else {
+                        assert_eq!(shift, 0.0, "column {k}");
+                    }
+                }
+            }
+            // Raw features (audio_norm none): √128 per dB, within ±6 dB.
+            gains.push(first / MFCC0_PER_DB);
+        }
+        assert!(gains.iter().all(|g| g.abs() <= 6.0 + 1e-3), "{gains:?}");
+        assert!(gains.iter().any(|g| g.abs() > 1.0), "{gains:?}");
+        // Standardised features move by the same dB over MFCC 0's SD.
+        let mut std = vec![1.0; AUDIO_DIM];
+        std[1] = 50.0;
+        let s = config(RecipeConfig {
+            gain_db: 6.0,
+            audio_norm: AudioNorm::Standardize,
+            audio_mean: vec![0.0; AUDIO_DIM],
+            audio_std: std,
+            ..RecipeConfig::default()
+        });
+        let (scaled, _) = apply(&d, &s, &model, &device, 9, 0);
+        let ratio = (scaled.audio[1] - d.audio[1]) as f64 / (out.audio[1] - d.audio[1]) as f64;
+        assert!((ratio - 1.0 / 50.0).abs() < 1e-4, "{ratio}");
     }
 }
