@@ -99,11 +99,10 @@ pub struct ClfEvaluation {
     pub confusion: Vec<Vec<usize>>,
 }
 
-/// Accuracy on the ground-truth test + val sequences; writes `R/eval/step-N/report.{md,json}`.
-pub fn evaluate_clf(req: &RunEvalRequest) -> Result<(ClfEvaluation, String)> {
-    let clf = TrainedClf::load(&req.run, req.checkpoint.as_deref())?;
-    let ds = Dataset::open(&req.data)?;
-    let names = crate::evaluate::protocol_sequences(&ds)?;
+/// The classifier's confusion matrix (rows: true genre) on the ground-truth test + val sequences that name
+/// a genre, and how many those are.
+pub fn ground_truth_confusion(clf: &TrainedClf, ds: &Dataset) -> Result<(Vec<Vec<usize>>, usize)> {
+    let names = crate::evaluate::protocol_sequences(ds)?;
     let mut confusion = vec![vec![0usize; GENRES.len()]; GENRES.len()];
     let mut scored = 0;
     for name in &names {
@@ -114,6 +113,14 @@ pub fn evaluate_clf(req: &RunEvalRequest) -> Result<(ClfEvaluation, String)> {
         confusion[truth][clf.classify(&motion)] += 1;
         scored += 1;
     }
+    Ok((confusion, scored))
+}
+
+/// Accuracy on the ground-truth test + val sequences; writes `R/eval/step-N/report.{md,json}`.
+pub fn evaluate_clf(req: &RunEvalRequest) -> Result<(ClfEvaluation, String)> {
+    let clf = TrainedClf::load(&req.run, req.checkpoint.as_deref())?;
+    let ds = Dataset::open(&req.data)?;
+    let (confusion, scored) = ground_truth_confusion(&clf, &ds)?;
     let correct: usize = (0..GENRES.len()).map(|g| confusion[g][g]).sum();
     let accuracy = correct as f64 / scored.max(1) as f64;
     if accuracy < 0.8 {

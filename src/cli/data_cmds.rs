@@ -40,6 +40,11 @@ pub struct SynthArgs {
     /// which the dances ignore; docs/freezing.md, section 5).
     #[arg(long)]
     pub plain_music: bool,
+    /// Give every genre its posture (krump's deep stance, waacking's raised arms, …), held through its
+    /// dances: genres a classifier can tell apart (0.85–0.95 against 0.40–0.60), at a cost to models that
+    /// hear no genre and must guess it from the music (docs/control.md).
+    #[arg(long)]
+    pub genre_postures: bool,
 }
 
 pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
@@ -57,6 +62,7 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
         sample_rate: a.sample_rate,
         real_music,
         varied_music: !a.plain_music,
+        genre_postures: a.genre_postures,
     };
     let report = synth::generate(&a.out, &opts)?;
     let count = |s: &str| report.splits.get(s).map_or(0, |v| v.len());

@@ -251,6 +251,81 @@ pub fn genre_style(genre: &str) -> ([usize; 4], f64) {
     }
 }
 
+/// A genre's posture: degrees added to the neutral pose, held through the whole dance whatever the move.
+/// Real AIST++ genres differ this way while sharing many steps — krump's deep stance with the fists up,
+/// waacking's raised arms, ballet jazz's extended arms. Without it the synthetic genres are only a choice
+/// among shared moves, and the genre classifier reaches 0.40–0.60 on them; with it 0.85–0.95. A posture
+/// moves nothing by itself, but a model that hears no genre must guess one from the music, and the demo's
+/// tiny models dance worse for it (docs/control.md): opt-in, `qean synth --genre-postures`.
+fn genre_posture(genre: &str) -> Vec<(usize, usize, f64)> {
+    match genre {
+        // break: low stance
+        "BR" => vec![
+            (L_KNEE, X, 35.0),
+            (R_KNEE, X, 35.0),
+            (L_HIP, X, -30.0),
+            (R_HIP, X, -30.0),
+            (SPINE1, X, 12.0),
+        ],
+        // pop: arms in front, elbows up
+        "PO" => vec![
+            (L_ELBOW, Y, -60.0),
+            (R_ELBOW, Y, 60.0),
+            (L_SHOULDER, Y, -40.0),
+            (R_SHOULDER, Y, 40.0),
+        ],
+        // lock: arms out to the sides, elbows bent
+        "LO" => vec![
+            (L_SHOULDER, Z, 45.0),
+            (R_SHOULDER, Z, -45.0),
+            (L_ELBOW, Y, -85.0),
+            (R_ELBOW, Y, 85.0),
+        ],
+        // middle hip-hop: soft knees, chest forward
+        "MH" => vec![(L_KNEE, X, 15.0), (R_KNEE, X, 15.0), (SPINE2, X, 8.0)],
+        // LA hip-hop: a forward lean
+        "LH" => vec![(SPINE1, X, 15.0), (SPINE2, X, 8.0)],
+        // house: bent knees
+        "HO" => vec![
+            (L_KNEE, X, 20.0),
+            (R_KNEE, X, 20.0),
+            (L_HIP, X, -12.0),
+            (R_HIP, X, -12.0),
+        ],
+        // waack: arms raised high
+        "WA" => vec![(L_SHOULDER, Z, 110.0), (R_SHOULDER, Z, -110.0)],
+        // krump: deep stance, chest forward, fists up
+        "KR" => vec![
+            (L_KNEE, X, 30.0),
+            (R_KNEE, X, 30.0),
+            (L_HIP, X, -20.0),
+            (R_HIP, X, -20.0),
+            (SPINE2, X, 15.0),
+            (L_ELBOW, Y, -95.0),
+            (R_ELBOW, Y, 95.0),
+        ],
+        // street jazz: chest lifted, arms a little out and forward
+        "JS" => vec![
+            (SPINE2, X, -10.0),
+            (SPINE3, X, -8.0),
+            (L_SHOULDER, Z, 20.0),
+            (R_SHOULDER, Z, -20.0),
+            (L_SHOULDER, Y, -20.0),
+            (R_SHOULDER, Y, 20.0),
+        ],
+        // ballet jazz: upright, arms extended forward and out
+        _ => vec![
+            (L_SHOULDER, Z, 40.0),
+            (R_SHOULDER, Z, -40.0),
+            (L_SHOULDER, Y, -35.0),
+            (R_SHOULDER, Y, 35.0),
+            (L_ELBOW, Y, 15.0),
+            (R_ELBOW, Y, -15.0),
+            (NECK, X, -8.0),
+        ],
+    }
+}
+
 /// What a dance follows: the beat grid and the chord of each phrase.
 #[derive(Debug, Clone)]
 pub struct BeatGrid {
@@ -302,6 +377,8 @@ pub struct DanceStyle {
     pub seed: u64,
     /// `smpl_scaling` to store (AIST++ translations are scaled; consumers divide).
     pub scaling: f64,
+    /// Hold the genre's posture ([`genre_posture`]).
+    pub posture: bool,
 }
 
 /// Generate `frames` frames of dance at 60 fps following `grid`.
@@ -315,6 +392,14 @@ pub fn generate(grid: &BeatGrid, style: &DanceStyle, frames: usize) -> Motion {
         .collect();
     let lim = limits();
     let mut base = neutral_pose();
+    let posture = if style.posture {
+        genre_posture(&style.genre)
+    } else {
+        Vec::new()
+    };
+    for &(j, a, deg) in &posture {
+        base[j][a] += deg;
+    }
     for j in [
         SPINE1, SPINE2, NECK, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW,
     ] {
@@ -444,6 +529,7 @@ mod tests {
             energy: 1.0,
             seed: 3,
             scaling: 93.0,
+            posture: true,
         }
     }
 
@@ -461,6 +547,63 @@ mod tests {
             let max_y = j.iter().map(|p| p[1]).fold(f64::MIN, f64::max);
             assert!(max_y < 2.3, "{g}: highest joint at {max_y}");
         }
+    }
+
+    /// With postures every genre holds its own mean pose (no two within 5 cm of each other in the
+    /// root-relative wrists and knees); without, the genres share the neutral one.
+    #[test]
+    fn postures_set_the_genres_apart_and_are_optional() {
+        let mean_pose = |g: &str, posture: bool| -> Vec<f64> {
+            let m = generate(
+                &grid(100.0, 10.0),
+                &DanceStyle {
+                    posture,
+                    ..style(g)
+                },
+                600,
+            );
+            let j = m.joints(FkRoot::Smpl);
+            let mut acc = vec![0.0; 12];
+            for f in j.chunks_exact(NUM_JOINTS) {
+                for (k, joint) in [L_WRIST, R_WRIST, L_KNEE, R_KNEE].iter().enumerate() {
+                    for a in 0..3 {
+                        acc[3 * k + a] += (f[*joint][a] - f[PELVIS][a]) / 600.0;
+                    }
+                }
+            }
+            acc
+        };
+        let dist = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        let genres = qean_aistpp::names::GENRES;
+        let with: Vec<Vec<f64>> = genres.iter().map(|g| mean_pose(g, true)).collect();
+        let without: Vec<Vec<f64>> = genres.iter().map(|g| mean_pose(g, false)).collect();
+        for i in 0..genres.len() {
+            for k in i + 1..genres.len() {
+                let d = dist(&with[i], &with[k]);
+                assert!(d > 0.05, "{} and {}: {d}", genres[i], genres[k]);
+            }
+        }
+        let spread = |p: &[Vec<f64>]| {
+            let mut worst: f64 = 0.0;
+            for a in p {
+                for b in p {
+                    worst = worst.max(dist(a, b));
+                }
+            }
+            worst
+        };
+        assert!(
+            spread(&without) < spread(&with),
+            "{} {}",
+            spread(&without),
+            spread(&with)
+        );
     }
 
     /// Kinematic beats (minima of mean joint speed) fall close to music beats.

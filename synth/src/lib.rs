@@ -54,6 +54,9 @@ pub struct SynthOptions {
     /// Vary each procedural track's loudness, mix and drum sections ([`music::Arrangement`]);
     /// false gives the plain tracks of datasets made before (docs/freezing.md, section 5).
     pub varied_music: bool,
+    /// Give every genre its posture (`dance::genre_posture`): genres a classifier can tell apart, at a cost
+    /// to models that hear no genre (docs/control.md). Off by default.
+    pub genre_postures: bool,
 }
 
 /// A real recording standing in for one music ID's procedural track.
@@ -95,6 +98,7 @@ impl Default for SynthOptions {
             sample_rate: 30720,
             real_music: Vec::new(),
             varied_music: true,
+            genre_postures: false,
         }
     }
 }
@@ -106,6 +110,9 @@ pub struct SynthReport {
     pub seconds: f64,
     pub sample_rate: u32,
     pub varied_music: bool,
+    /// Absent (false) in datasets made before the option existed.
+    #[serde(default)]
+    pub genre_postures: bool,
     pub splits: BTreeMap<String, Vec<String>>,
     /// Per music ID: tempo, first beat (s) and the phrase chords.
     pub music: BTreeMap<String, MusicInfo>,
@@ -294,6 +301,7 @@ fn write_dataset(
             energy: rng.random_range(0.8..1.2),
             seed: rng.random(),
             scaling: rng.random_range(85.0..105.0),
+            posture: opts.genre_postures,
         };
         let motion = dance::generate(&grid, &style, frames);
         motion.write_pkl(
@@ -313,6 +321,7 @@ fn write_dataset(
         seconds: opts.seconds,
         sample_rate: opts.sample_rate,
         varied_music: opts.varied_music,
+        genre_postures: opts.genre_postures,
         splits: plan
             .iter()
             .map(|(s, n)| (s.name().to_string(), n.clone()))
@@ -485,6 +494,7 @@ mod tests {
             sample_rate: 8000,
             real_music: Vec::new(),
             varied_music: true,
+            genre_postures: false,
         };
         let a = root.path().join("a");
         let b = root.path().join("b");

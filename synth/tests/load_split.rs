@@ -16,6 +16,7 @@ fn load_split_of_a_synthetic_dataset() {
         sample_rate: 8000,
         real_music: Vec::new(),
         varied_music: false,
+        genre_postures: false,
     };
     qean_synth::generate(&dir, &opts).unwrap();
     let ds = Dataset::open(&dir).unwrap();
