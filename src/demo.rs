@@ -56,6 +56,7 @@ const ASSETS: &[Asset] = &[
     asset!("configs/tiny/full.toml"),
     asset!("configs/tsmt/paper.toml"),
     asset!("configs/tsmt/tiny.toml"),
+    asset!("configs/tsmt/small.toml"),
     asset!("configs/inbetween/paper.toml"),
     asset!("configs/inbetween/tiny.toml"),
     asset!("configs/inbetween/tiny_motion.toml"),
@@ -64,12 +65,19 @@ const ASSETS: &[Asset] = &[
     asset!("configs/control/vqvae_tiny.toml"),
     asset!("configs/control/gpt_paper.toml"),
     asset!("configs/control/gpt_tiny.toml"),
+    asset!("configs/control/genre_clf_paper.toml"),
+    asset!("configs/control/genre_clf_tiny.toml"),
+    asset!("configs/control/genre_paper.toml"),
+    asset!("configs/control/genre_tiny.toml"),
 ];
 
-/// The run names of the demo's motion VQ-VAE (trained beside the dance models) and of the GPT over its
-/// tokens (trained after it).
+/// The run names of the demo's motion VQ-VAE (trained beside the dance models), of the GPT over its
+/// tokens (trained after it), of the genre classifier (beside the dance models) and of genre control over
+/// the GPT (trained after the GPT).
 const VQ: &str = "vq";
 const GPT: &str = "gpt";
+pub(crate) const CLF: &str = "genre_clf";
+pub(crate) const GENRE: &str = "genre";
 
 /// The run name of the demo's in-betweener (trained beside the dance models, used by
 /// [`crate::demo_inbetween`]).
@@ -106,16 +114,15 @@ pub struct Budget {
 }
 
 impl Budget {
-    /// Training steps of one demo model: TSMT gets a quarter. It runs at half the others' speed and
-    /// does not dance at any CPU budget (docs/tsmt.md), so the full budget would double the demo's time
-    /// for a row that jitters either way. The in-betweener gets half (2,000 steps: its preset's); the
-    /// VQ-VAE and the GPT three quarters each (3,000: docs/control.md measured these), as they train one
-    /// after the other.
+    /// Training steps of one demo model. TSMT gets three quarters (3,000: the small preset's, where it
+    /// stops jittering, docs/tsmt.md); so do the VQ-VAE and the GPT (docs/control.md measured these), as
+    /// they train one after the other. The in-betweener gets half (2,000 steps: its preset's), genre
+    /// control half (it trains after the GPT), the genre classifier a quarter (1,000: its preset's).
     pub fn steps_for(&self, name: &str) -> u64 {
         match name {
-            "tsmt" => (self.steps / 4).max(25),
-            INBETWEENER => (self.steps / 2).max(25),
-            VQ | GPT => (self.steps * 3 / 4).max(25),
+            "tsmt" | VQ | GPT => (self.steps * 3 / 4).max(25),
+            INBETWEENER | GENRE => (self.steps / 2).max(25),
+            CLF => (self.steps / 4).max(25),
             _ => self.steps,
         }
     }
@@ -177,6 +184,19 @@ pub struct DemoOptions {
     pub progress: ProgressMode,
 }
 
+/// One dance to the held-out song.
+#[derive(Debug, Clone)]
+pub struct DanceResult {
+    pub label: String,
+    /// `dances/<dir>/`: the family's name, or `genre-<G>` for a genre-steered dance.
+    pub dir: String,
+    pub files: Vec<PathBuf>,
+    /// Motion energy of the generated frames against the synthetic ground truth.
+    pub energy: MotionEnergy,
+    /// Seed frames at its start.
+    pub seed_frames: usize,
+}
+
 /// One trained model's results.
 #[derive(Debug, Clone)]
 pub struct ModelResult {
@@ -185,9 +205,8 @@ pub struct ModelResult {
     pub checkpoint: PathBuf,
     pub train_seconds: f64,
     pub final_loss: Option<f64>,
-    pub dance: Vec<PathBuf>,
-    /// Motion energy of the held-out dance's generated frames against the synthetic ground truth.
-    pub dance_energy: MotionEnergy,
+    /// Its dances to the held-out song (genre control: one per demonstrated genre).
+    pub dances: Vec<DanceResult>,
     pub report_md: PathBuf,
     pub report: RunReport,
 }
@@ -289,19 +308,22 @@ fn dataset(out: &Path, budget: &Budget) -> anyhow::Result<PathBuf> {
     Ok(dir)
 }
 
-/// The `--set` overrides that shrink a preset to the demo's budget, for `steps` steps (the
-/// in-betweener keeps its own windows and constant learning rate).
+/// The `--set` overrides that shrink a preset to the demo's budget, for `steps` steps. The
+/// in-betweener keeps its own windows and constant learning rate; the genre classifier and genre
+/// control keep their batch sizes and constant learning rates too.
 fn overrides(b: &Budget, data: &Path, name: &str, steps: u64) -> Vec<String> {
     let every = (steps / 4).max(1);
     let mut o = vec![
         string_override("data.dir", &data.to_string_lossy()),
         format!("train.steps={steps}"),
-        format!("train.batch_size={}", b.batch_size),
         format!("train.checkpoint_every={every}"),
         format!("train.val_every={every}"),
         format!("train.log_every={}", (steps / 30).max(1)),
     ];
-    if name != INBETWEENER {
+    if name != CLF && name != GENRE {
+        o.push(format!("train.batch_size={}", b.batch_size));
+    }
+    if name != INBETWEENER && name != CLF && name != GENRE {
         o.extend([
             format!("model.motion_len={}", b.motion_len),
             format!("model.audio_len={}", b.audio_len),
@@ -342,6 +364,10 @@ fn train_all(
         if *name == GPT {
             let vq = opts.out.join("runs").join(VQ);
             overrides.push(string_override("gpt.vqvae_run", &vq.to_string_lossy()));
+        }
+        if *name == GENRE {
+            let gpt = opts.out.join("runs").join(GPT);
+            overrides.push(string_override("genre.gpt_run", &gpt.to_string_lossy()));
         }
         let config = opts.out.join(preset);
         let wanted = RunConfig::load(&config, &overrides)?;
@@ -439,14 +465,18 @@ fn marker_text(ck: &Checkpoint) -> String {
     format!("step {}\n", ck.state.step)
 }
 
+/// The dance of run `ck` to the held-out song under `out/dances/<dir_name>/` (a genre-control run dances
+/// in `genre`), with its files and joints; reused when the marker names the same checkpoint.
 fn dance(
     out: &Path,
     data: &Path,
-    name: &str,
+    dir_name: &str,
     ck: &Checkpoint,
     frames: usize,
+    genre: Option<qean_pipeline::gpt::GenreChoice>,
 ) -> anyhow::Result<(Vec<PathBuf>, Vec<qean_eval::Frame>)> {
-    let dir = out.join("dances").join(name);
+    let name = dir_name;
+    let dir = out.join("dances").join(dir_name);
     let stem = "Vibe_Ace";
     let marker = dir.join(".done");
     let expected: Vec<PathBuf> = ["pkl", "joints.npy", "bvh", "png", "gif"]
@@ -495,8 +525,10 @@ fn dance(
             backend: ck.config.train.backend,
             temperature: None,
             top_k: None,
+            decode: None,
+            repetition_penalty: None,
             sample_seed: 0,
-            genre: None,
+            genre,
         },
         &dir,
         |done, total| {
@@ -536,17 +568,16 @@ fn compare_page(out: &Path, data: &Path, models: &[ModelResult]) -> anyhow::Resu
         joints: gt.joints(root),
         seed_frames: 0,
     }];
-    for m in models {
-        let npy = m
-            .dance
+    for d in models.iter().flat_map(|m| &m.dances) {
+        let npy = d
+            .files
             .iter()
             .find(|p| p.to_string_lossy().ends_with(".joints.npy"))
             .context("a demo dance without joints")?;
-        let ck = qean_train::checkpoint::Checkpoint::read(&m.checkpoint)?;
         dances.push(PageDance {
-            label: m.label.clone(),
+            label: d.label.clone(),
             joints: qean_motion::joints_file::load_joints(npy, root)?,
-            seed_frames: ck.config.seed_frames(),
+            seed_frames: d.seed_frames,
         });
     }
     let page = out.join("dances").join("compare.html");
@@ -674,12 +705,12 @@ pub fn table(models: &[ModelResult], reference: &EnergyReference) -> String {
         reference.accel,
         reference.freeze_threshold()
     );
-    for m in models {
-        let e = &m.dance_energy;
+    for d in models.iter().flat_map(|m| &m.dances) {
+        let e = &d.energy;
         let speeds: Vec<String> = e.spans.iter().map(|s| format!("{:.2}", s.speed)).collect();
         t += &format!(
             "| {} | {} | {} | {} | {:.0} % | {} |\n",
-            m.label,
+            d.label,
             speeds.join("/"),
             e.span_speed_ratios(),
             e.span_accel_ratios(),
@@ -693,8 +724,22 @@ pub fn table(models: &[ModelResult], reference: &EnergyReference) -> String {
         let (Some(r), Some(b)) = (m.report.reports.first(), m.report.baselines.as_ref()) else {
             continue;
         };
-        let e = &m.dance_energy;
-        t += &format!("- {}: the held-out dance {}", m.label, dance_sentence(e));
+        let dances: Vec<String> = m
+            .dances
+            .iter()
+            .map(|d| {
+                if m.dances.len() == 1 {
+                    format!("the held-out dance {}", dance_sentence(&d.energy))
+                } else {
+                    format!(
+                        "the held-out dance as {} {}",
+                        d.dir,
+                        dance_sentence(&d.energy)
+                    )
+                }
+            })
+            .collect();
+        t += &format!("- {}: {}", m.label, dances.join("; "));
         let bound = 0.7 * b.frozen.fid_k;
         let fid = if r.fid_k <= bound { "met" } else { "NOT met" };
         t += &format!(
@@ -775,7 +820,11 @@ fn table_note(budget: &Budget, models: &[ModelResult]) -> String {
             budget.steps
         );
     }
-    if models.iter().any(|m| !m.dance_energy.dances()) {
+    if models
+        .iter()
+        .flat_map(|m| &m.dances)
+        .any(|d| !d.energy.dances())
+    {
         return format!(
             "\nA held-out dance that froze or jitters is not a dance, whatever its metrics. The table above scores \
              up to {:.0} s per test and validation sequence; the held-out dance is {:.0} s of a real song. At this \
@@ -798,14 +847,17 @@ fn summary_text(
     seconds: f64,
 ) -> String {
     let mut summary = format!(
-        "# qean demo\n\nDataset: {} ({} sequences of ~{} s). FACT and QEAN trained {} steps, TSMT {} (batch {}, windows of {} \
-         motion / {} music frames) on CPU; scored on the test + val split (seed = the first {} ground-truth \
-         frames, TSMT's 120, then up to {} generated frames), Bailando's metrics and Li et al.'s.\n\n{table}\n## Artefacts\n\n",
+        "# qean demo\n\nDataset: {} ({} sequences of ~{} s). FACT and QEAN trained {} steps, TSMT {}, the VQ-VAE and \
+         the GPT {} one after the other, genre control {} after them (batch {}, FACT/QEAN windows of {} motion / {} \
+         music frames) on CPU; scored on the test + val split (seed = the first {} ground-truth frames, TSMT's and \
+         the GPT's 120, then up to {} generated frames), Bailando's metrics and Li et al.'s.\n\n{table}\n## Artefacts\n\n",
         data.display(),
         budget.sequences,
         budget.seconds,
         budget.steps,
         budget.steps_for("tsmt"),
+        budget.steps_for(GPT),
+        budget.steps_for(GENRE),
         budget.batch_size,
         budget.motion_len,
         budget.audio_len,
@@ -820,7 +872,7 @@ fn summary_text(
             m.checkpoint.display(),
             m.report_md.display()
         );
-        for p in &m.dance {
+        for p in m.dances.iter().flat_map(|d| &d.files) {
             summary += &format!("  - {}\n", p.display());
         }
     }
@@ -841,6 +893,124 @@ fn summary_text(
     }
     summary += &format!("\nTotal time of this demo run: {seconds:.0} s\n");
     summary
+}
+
+/// The models trained side by side: (run name, label, preset).
+const PRESETS: [(&str, &str, &str); 5] = [
+    ("fact", "tiny FACT", "configs/tiny/fact.toml"),
+    (
+        "qean",
+        "tiny QEAN (full: SPE + QRA)",
+        "configs/tiny/full.toml",
+    ),
+    (
+        "tsmt",
+        "small TSMT (Li et al.; mean decoding)",
+        "configs/tsmt/small.toml",
+    ),
+    (
+        CLF,
+        "tiny genre classifier",
+        "configs/control/genre_clf_tiny.toml",
+    ),
+    (
+        INBETWEENER,
+        "tiny motion in-betweener (Lin + sin² taper, velocity loss)",
+        "configs/inbetween/tiny_motion_smooth.toml",
+    ),
+];
+
+/// The VQ-VAE, the GPT over its tokens and genre control over the GPT: one after the other, beside the
+/// others.
+const CHAIN: [(&str, &str, &str); 3] = [
+    (VQ, "tiny motion VQ-VAE", "configs/control/vqvae_tiny.toml"),
+    (
+        GPT,
+        "tiny VQ-VAE + GPT (multi-modal control)",
+        "configs/control/gpt_tiny.toml",
+    ),
+    (
+        GENRE,
+        "tiny GPT + genre control (each track in its genre)",
+        "configs/control/genre_tiny.toml",
+    ),
+];
+
+/// Trains every stage (side by side, the VQ-VAE → GPT → genre chain in its own thread); `None` when
+/// interrupted. Each finished run with its name and label.
+fn train_stages(
+    opts: &DemoOptions,
+    data: &Path,
+) -> anyhow::Result<Option<Vec<(&'static str, &'static str, Trained)>>> {
+    let (side, chained) = std::thread::scope(|scope| {
+        let chained = scope.spawn(|| -> anyhow::Result<Option<Vec<Trained>>> {
+            let mut done = Vec::new();
+            for stage in &CHAIN {
+                match train_all(opts, &data, std::slice::from_ref(stage))? {
+                    Some(mut t) => done.push(t.remove(0)),
+                    None => return Ok(None),
+                }
+            }
+            Ok(Some(done))
+        });
+        let side = train_all(opts, &data, &PRESETS);
+        (side, chained.join())
+    });
+    let chained = chained
+        .map_err(|_| anyhow::anyhow!("internal: the VQ-VAE → GPT → genre thread panicked"))?;
+    let (Some(side), Some(chained)) = (side?, chained?) else {
+        return Ok(None);
+    };
+    let trained: Vec<_> = PRESETS
+        .iter()
+        .chain(&CHAIN)
+        .zip(side.into_iter().chain(chained))
+        .map(|((name, label, _), t)| (*name, *label, t))
+        .collect();
+    Ok(Some(trained))
+}
+
+/// The run's dances to the held-out song (genre control: one per shown genre), each with its motion
+/// energy against the dataset's.
+fn held_out_dances(
+    out: &Path,
+    data: &Path,
+    name: &str,
+    label: &str,
+    ck: &Checkpoint,
+    budget: &Budget,
+    reference: &EnergyReference,
+) -> anyhow::Result<Vec<DanceResult>> {
+    let steered: Vec<(String, String, Option<qean_pipeline::gpt::GenreChoice>)> = if name == GENRE {
+        crate::demo_genre::SHOWN
+            .iter()
+            .map(|g| {
+                let choice = qean_pipeline::gpt::GenreChoice::parse(g, 0)?;
+                Ok((
+                    format!("genre-{g}"),
+                    format!("tiny GPT + genre control, --genre {g}"),
+                    Some(choice),
+                ))
+            })
+            .collect::<anyhow::Result<_>>()?
+    } else {
+        vec![(name.to_string(), label.to_string(), None)]
+    };
+    let mut dances = Vec::new();
+    for (dir, dance_label, genre) in steered {
+        let (files, joints) = dance(out, data, &dir, ck, budget.dance_frames, genre)?;
+        let seed_frames = ck.config.seed_frames().min(joints.len());
+        let (_, energy) = motion_energy([&joints[seed_frames..]], reference);
+        say(format!("dance {dir}: {}", energy.describe(reference)));
+        dances.push(DanceResult {
+            label: dance_label,
+            dir,
+            files,
+            energy,
+            seed_frames,
+        });
+    }
+    Ok(dances)
 }
 
 /// Runs the demo.
@@ -865,53 +1035,22 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
             "features: computed the music features of {computed} music IDs"
         ));
     }
-    let presets = [
-        ("fact", "tiny FACT", "configs/tiny/fact.toml"),
-        (
-            "qean",
-            "tiny QEAN (full: SPE + QRA)",
-            "configs/tiny/full.toml",
-        ),
-        ("tsmt", "tiny TSMT (Li et al.)", "configs/tsmt/tiny.toml"),
-        (VQ, "tiny motion VQ-VAE", "configs/control/vqvae_tiny.toml"),
-        (
-            INBETWEENER,
-            "tiny motion in-betweener (Lin + sin² taper, velocity loss)",
-            "configs/inbetween/tiny_motion_smooth.toml",
-        ),
-    ];
-    let mut trained: Vec<_> = match train_all(opts, &data, &presets)? {
-        Some(t) => presets
-            .iter()
-            .zip(t)
-            .map(|((name, label, _), t)| (*name, *label, t))
-            .collect(),
-        None => return Ok(DemoResult::interrupted(data)),
+    let Some(mut trained) = train_stages(opts, &data)? else {
+        return Ok(DemoResult::interrupted(data));
     };
-    let (_, _, (ib_ck, _, _)) = trained.pop().expect("the in-betweener is the last preset");
-    trained.pop().expect("the VQ-VAE precedes it");
-    // The GPT learns the VQ-VAE's tokens, so it trains once the VQ-VAE is done.
-    let gpt = [(
-        GPT,
-        "tiny VQ-VAE + GPT (multi-modal control)",
-        "configs/control/gpt_tiny.toml",
-    )];
-    match train_all(opts, &data, &gpt)? {
-        Some(mut t) => trained.push((gpt[0].0, gpt[0].1, t.remove(0))),
-        None => return Ok(DemoResult::interrupted(data)),
-    }
+    let take = |trained: &mut Vec<(&str, &str, Trained)>, name: &str| {
+        let i = trained.iter().position(|t| t.0 == name).expect("trained");
+        trained.remove(i).2
+    };
+    let (ib_ck, _, _) = take(&mut trained, INBETWEENER);
+    let (clf_ck, _, _) = take(&mut trained, CLF);
+    take(&mut trained, VQ);
     let reference =
         qean_eval::run_report::dataset_energy_reference(&data, qean_motion::FkRoot::Smpl)?;
     let mut models = Vec::new();
     for (name, label, (ck, seconds, loss)) in trained {
         let run_dir = out.join("runs").join(name);
-        let (dance, joints) = dance(out, &data, name, &ck, opts.budget.dance_frames)?;
-        let seed = ck.config.seed_frames().min(joints.len());
-        let (_, dance_energy) = motion_energy([&joints[seed..]], &reference);
-        say(format!(
-            "dance {name}: {}",
-            dance_energy.describe(&reference)
-        ));
+        let dances = held_out_dances(out, &data, name, label, &ck, &opts.budget, &reference)?;
         let (report, report_md) = evaluate(&run_dir, &data, &ck, opts.budget.eval_frames)?;
         models.push(ModelResult {
             label: label.to_string(),
@@ -919,12 +1058,18 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
             checkpoint: ck.dir.clone(),
             train_seconds: seconds,
             final_loss: loss,
-            dance,
-            dance_energy,
+            dances,
             report_md,
             report,
         });
     }
+    say("genre control: the classifier on the ground truth, then every test + val music in each of the 10 genres");
+    let genre = crate::demo_genre::run(
+        &data,
+        &clf_ck,
+        &out.join("runs").join(GENRE),
+        opts.budget.eval_frames,
+    )?;
     let page = compare_page(out, &data, &models)?;
     say(format!(
         "view: {} (every model's dance to the held-out song in 3-D with the music; open it in a browser)",
@@ -938,6 +1083,7 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
         crate::demo_inbetween::run(out, &data, &out.join("runs").join(INBETWEENER), &ib_ck)?;
     let table = table(&models, &reference)
         + &table_note(&opts.budget, &models)
+        + &crate::demo_genre::table(&genre)
         + &crate::demo_inbetween::table(&inbetween);
     let summary = summary_text(
         &opts.budget,

@@ -107,6 +107,14 @@ pub struct Args {
     /// Checkpoint mode, TSMT: draw from the k most likely bins only (default: the run's tsmt.top_k).
     #[arg(long, requires = "run")]
     pub top_k: Option<usize>,
+    /// Checkpoint mode, TSMT: how sampled bins become coordinates: bin (the paper's), subbin, coherent or
+    /// mean (default: the run's tsmt.decode; `qean sample --help` says what each does).
+    #[arg(long, requires = "run")]
+    pub decode: Option<String>,
+    /// Checkpoint mode, GPT: the repetition penalty on the codes of the last gpt.repetition_window tokens
+    /// (1 = off; default: the run's gpt.repetition_penalty).
+    #[arg(long, requires = "run")]
+    pub repetition_penalty: Option<f64>,
     /// Checkpoint mode, TSMT: seed of the draws (S-music-D's extra rollouts use the next seeds).
     #[arg(long, requires = "run", default_value_t = 0)]
     pub sample_seed: u64,
@@ -263,6 +271,13 @@ impl Args {
                 },
                 temperature: self.temperature,
                 top_k: self.top_k,
+                decode: self
+                    .decode
+                    .as_deref()
+                    .map(str::parse)
+                    .transpose()
+                    .map_err(|e: String| anyhow::anyhow!("--decode: {e}"))?,
+                repetition_penalty: self.repetition_penalty,
                 sample_seed: self.sample_seed,
                 music_rollouts: self.music_rollouts,
             },

@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod demo;
+pub mod demo_genre;
 pub mod demo_inbetween;
 pub mod eval_cli;
 pub mod keyframe_settings;

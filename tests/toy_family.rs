@@ -163,6 +163,7 @@ fn a_toy_family_trains_resumes_exactly_and_samples_through_the_trainer() {
         sample_rate: 8000,
         real_music: Vec::new(),
         varied_music: false,
+        genre_postures: false,
     };
     qean_synth::generate(&data, &synth).unwrap();
     let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");

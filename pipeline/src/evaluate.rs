@@ -41,8 +41,23 @@ pub struct SamplingOverrides {
     /// how many rollouts per input S-music-D takes (None: 5, with seeds sample_seed..+5).
     pub temperature: Option<f64>,
     pub top_k: Option<usize>,
+    /// TSMT: how sampled bins become coordinates (None: the run's `tsmt.decode`).
+    pub decode: Option<qean_config::tsmt::TsmtDecode>,
+    /// GPT: the repetition penalty (None: the run's `gpt.repetition_penalty`).
+    pub repetition_penalty: Option<f64>,
     pub sample_seed: u64,
     pub music_rollouts: Option<usize>,
+}
+
+impl SamplingOverrides {
+    /// The GPT's share of the overrides.
+    pub fn picking(&self) -> crate::gpt::PickingOverrides {
+        crate::gpt::PickingOverrides {
+            top_k: self.top_k,
+            temperature: self.temperature,
+            repetition_penalty: self.repetition_penalty,
+        }
+    }
 }
 
 /// What checkpoint mode evaluates.
@@ -198,6 +213,7 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
         ensemble: opts.ensemble,
         seam_frames: opts.seam_frames,
         seed_start: req.seed_start,
+        sampler: sampler_label(req, config),
         pairings: pairings_out,
         reports,
         baselines,
@@ -404,7 +420,7 @@ fn sample_tsmt(
         seeds: &seeds,
         music: &music,
         frames: req.max_frames,
-        sampling: crate::tsmt::sampling_with(&t, s.temperature, s.top_k, draw_seed),
+        sampling: crate::tsmt::sampling_with(&t, s.temperature, s.top_k, s.decode, draw_seed),
         backend,
     };
     let motions = crate::tsmt::sample_motions(ck, &rollouts, progress)?;
@@ -423,12 +439,9 @@ fn sample_gpt(
 ) -> Result<Vec<Vec<f32>>> {
     let dim = qean_aistpp::windows::AUDIO_DIM;
     let g = qean_train::gpt::gpt_of(&ck.config);
-    let run = crate::gpt::GptRun::load(ck)?;
-    let picking = crate::gpt::Picking {
-        top_k: req.sampling.top_k.unwrap_or(g.top_k),
-        temperature: req.sampling.temperature.unwrap_or(g.temperature),
-        seed: draw_seed,
-    };
+    let mut run = crate::gpt::GptRun::load(ck)?;
+    run.seam_frames = opts.seam_frames;
+    let picking = crate::gpt::Picking::of(g, &req.sampling.picking(), draw_seed);
     let mut out = Vec::new();
     for (i, r) in requests.iter().enumerate() {
         let seed = Motion::from_layout(&r.seed, opts.layout).map_err(Error::Invalid)?;
@@ -603,6 +616,30 @@ fn label(config: &qean_config::RunConfig, step: u64) -> String {
 }
 
 /// Writes `report.json` and `report.md` (the settings in a heading over the table); returns the table.
+/// How a token model's dances are drawn, in words (None for the deterministic FACT and QEAN).
+fn sampler_label(req: &RunEvalRequest, config: &qean_config::RunConfig) -> Option<String> {
+    let s = &req.sampling;
+    if let Some(t) = config.tsmt.as_ref() {
+        let r = crate::tsmt::sampling_with(t, s.temperature, s.top_k, s.decode, s.sample_seed);
+        return Some(format!(
+            "TSMT decoding {}, temperature {}, top-k {}, draw seed {}",
+            r.decode.name(),
+            r.temperature,
+            r.top_k,
+            r.seed
+        ));
+    }
+    if config.gpt.is_some() {
+        let g = qean_train::gpt::gpt_of(config);
+        let p = crate::gpt::Picking::of(g, &s.picking(), s.sample_seed);
+        return Some(format!(
+            "GPT picking top-k {}, temperature {}, repetition penalty {} over {} tokens, draw seed {}",
+            p.top_k, p.temperature, p.repetition_penalty, p.repetition_window, p.seed
+        ));
+    }
+    None
+}
+
 fn write_report(
     out_dir: &Path,
     report: &RunReport,
@@ -630,8 +667,12 @@ fn write_report(
     }
     let table = render_markdown(&rows);
     write_json_atomic(&out_dir.join("report.json"), report)?;
+    let sampler = report
+        .sampler
+        .as_ref()
+        .map_or(String::new(), |s| format!("Sampler: {s}.\n\n"));
     let md = format!(
-        "# Evaluation of {} ({:?} protocol, {} sequences, seed = {}, up to {} generated frames, {} feedback, {} pass(es) per frame, seed's end eased over {} frames)\n\n{table}",
+        "# Evaluation of {} ({:?} protocol, {} sequences, seed = {}, up to {} generated frames, {} feedback, {} pass(es) per frame, seed's end eased over {} frames)\n\n{sampler}{table}",
         report.checkpoint.display(),
         report.protocol,
         report.pairings.len(),

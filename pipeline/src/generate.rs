@@ -118,6 +118,10 @@ pub struct GenerateOptions {
     /// Categorical sampling (TSMT): temperature, top-k and the seed of the draws (None: the run's).
     pub temperature: Option<f64>,
     pub top_k: Option<usize>,
+    /// TSMT: how sampled bins become coordinates (None: the run's `tsmt.decode`).
+    pub decode: Option<qean_config::tsmt::TsmtDecode>,
+    /// GPT: the repetition penalty (None: the run's `gpt.repetition_penalty`).
+    pub repetition_penalty: Option<f64>,
     pub sample_seed: u64,
     /// Genre control (genre-control GPT runs): the genre and the seed of z.
     pub genre: Option<crate::gpt::GenreChoice>,

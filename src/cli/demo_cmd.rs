@@ -7,13 +7,14 @@ use qean::demo::{self, Budget, DemoOptions};
 use qean_train::ProgressMode;
 
 /// Run everything on embedded data, with nothing to download: a synthetic AIST++-format dataset whose
-/// music includes two real recordings; the tiny FACT, full-QEAN and TSMT models trained on CPU; a
-/// 1200-frame dance for a held-out real song (Kevin MacLeod's "Vibe Ace", CC BY 3.0) from each, with a
-/// preview and a verdict (does it keep dancing?); every model scored (FID_k, FID_g, Dist_k, Dist_g,
-/// BeatAlign, Li et al.'s metrics) next to chance baselines; then a test dance cut to 5 keys per measure
-/// and rebuilt by SLERP and by a tiny in-betweener trained beside them. About 12 minutes on 2 CPU cores
-/// (`--quick`: about a minute). Run it again to reuse finished stages; Ctrl-C stops training with a
-/// checkpoint and the next run continues.
+/// music includes two real recordings; tiny FACT and full-QEAN, a small TSMT (Li et al.), a tiny VQ-VAE +
+/// GPT and its genre-control stage trained on CPU, side by side; a 1200-frame dance for a held-out real
+/// song (Kevin MacLeod's "Vibe Ace", CC BY 3.0) from each (genre control: in two genres), with a preview
+/// and a verdict (does it keep dancing?); every model scored (FID_k, FID_g, Dist_k, Dist_g, BeatAlign,
+/// Li et al.'s metrics) next to chance baselines; the genre classifier and genre control's accuracy with
+/// their confusion matrices; then a test dance cut to 5 keys per measure and rebuilt by SLERP and by a
+/// tiny in-betweener. About 20 minutes on 2 CPU cores (`--quick`: about 3). Run it again to reuse
+/// finished stages; Ctrl-C stops training with a checkpoint and the next run continues.
 ///
 /// Example: qean demo --quick
 #[derive(Args, Debug)]
@@ -22,7 +23,7 @@ pub struct DemoArgs {
     /// Output directory (default: qean-demo, or qean-demo-quick with --quick).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// A smaller, shorter demo (under a minute).
+    /// A smaller, shorter demo (about 3 minutes): a smoke test, too short for the dances to be trusted.
     #[arg(long)]
     pub quick: bool,
     /// Plain progress lines instead of bars.
@@ -59,7 +60,7 @@ pub fn demo(a: DemoArgs) -> anyhow::Result<i32> {
         println!("  {}:", m.label);
         println!("    checkpoint: {}", m.checkpoint.display());
         println!("    report: {}", m.report_md.display());
-        for p in &m.dance {
+        for p in m.dances.iter().flat_map(|d| &d.files) {
             println!("    dance: {}", p.display());
         }
     }

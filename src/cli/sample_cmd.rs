@@ -73,8 +73,8 @@ pub struct SampleArgs {
     #[arg(long)]
     pub ensemble_decay: Option<f64>,
     /// Ease the seed's end: the jump from the seed to the first generated frame fades out over
-    /// N frames, fed back to the model as generated (default: the run's recipe.seam_frames;
-    /// 0 = off, as mint).
+    /// N frames, fed back to the model as generated (GPT runs: the decoded body eased out of the
+    /// seed's last pose) (default: the run's recipe.seam_frames; 0 = off, as mint).
     #[arg(long)]
     pub seam_frames: Option<usize>,
     /// Output directory (created if missing).
@@ -100,6 +100,17 @@ pub struct SampleArgs {
     /// a GPT's is 1, greedy as Bailando).
     #[arg(long)]
     pub top_k: Option<usize>,
+    /// TSMT: how sampled bins become joint coordinates: bin (the paper: every coordinate draws its own
+    /// bin, decoded to the bin's centre), subbin (the same draws, each value the mean of its distribution
+    /// around the drawn bin), coherent (one smooth quantile per frame shared by every coordinate, read
+    /// continuously: no jitter from independent draws or bin steps), mean (each distribution's mean,
+    /// deterministic). Default: the run's tsmt.decode. docs/tsmt.md compares them.
+    #[arg(long)]
+    pub decode: Option<String>,
+    /// GPT: divide the logits of codes used in the last gpt.repetition_window tokens (8) by this before
+    /// picking (1 = off, Bailando's picking; default: the run's gpt.repetition_penalty).
+    #[arg(long)]
+    pub repetition_penalty: Option<f64>,
     /// TSMT and GPT: seed of the draws.
     #[arg(long, default_value_t = 0)]
     pub sample_seed: u64,
@@ -133,7 +144,14 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
     if let Some(t) = a.temperature.filter(|t| !(t.is_finite() && *t >= 0.0)) {
         bail!("--temperature must be ≥ 0, got {t}");
     }
+    if let Some(r) = a
+        .repetition_penalty
+        .filter(|r| !(r.is_finite() && *r >= 1.0))
+    {
+        bail!("--repetition-penalty must be ≥ 1 (1 = off), got {r}");
+    }
     let genre = genre_choice(&a, &ck)?;
+    let decode = decode_choice(a.decode.as_deref(), &ck)?;
     let audio_len = ck.config.min_music_frames();
     let mut songs = Vec::new();
     for path in &a.music {
@@ -162,6 +180,8 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         backend: a.backend.unwrap_or(ck.config.train.backend),
         temperature: a.temperature,
         top_k: a.top_k,
+        decode,
+        repetition_penalty: a.repetition_penalty,
         sample_seed: a.sample_seed,
         genre,
     };
@@ -185,52 +205,83 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         for p in g.paths.all() {
             println!("  {}", p.display());
         }
-        let frames = qean_eval::run_report::frames_of(g.joints.clone());
-        let generated = &frames[seed_frames.min(frames.len())..];
-        match &reference {
-            Some(r) if generated.len() >= 3 => {
-                let (_, e) = qean_eval::motion_energy::motion_energy([generated], r);
-                println!("  motion: {}", e.describe(r));
-                let v = e.verdict();
-                if v.froze {
-                    tracing::warn!(
-                        "{}: the dance froze (speed ratio per 5 s {}, {:.0} % of 1-s windows below {:.3} m/s)",
-                        g.name,
-                        e.span_speed_ratios(),
-                        100.0 * e.freeze_fraction,
-                        r.freeze_threshold()
-                    );
-                }
-                if !e.dances() && !v.froze && !v.jitters {
-                    tracing::warn!(
-                        "{}: the dance moves too fast (speed ratio per 5 s {}, above 1.6 in a span)",
-                        g.name,
-                        e.span_speed_ratios()
-                    );
-                }
-                if v.jitters {
-                    tracing::warn!(
-                        "{}: the dance jitters (acceleration ratio per 5 s {}, reference {:.2} m/s²)",
-                        g.name,
-                        e.span_accel_ratios(),
-                        r.accel
-                    );
-                }
+        print_motion(&g.name, &g.joints, seed_frames, reference.as_ref());
+    }
+    Ok(0)
+}
+
+/// Prints a dance's motion profile and warns when it froze, races or jitters.
+fn print_motion(
+    name: &str,
+    joints: &[[f64; 3]],
+    seed_frames: usize,
+    reference: Option<&qean_eval::motion_energy::EnergyReference>,
+) {
+    let frames = qean_eval::run_report::frames_of(joints.to_vec());
+    let generated = &frames[seed_frames.min(frames.len())..];
+    match reference {
+        Some(r) if generated.len() >= 3 => {
+            let (_, e) = qean_eval::motion_energy::motion_energy([generated], r);
+            println!("  motion: {}", e.describe(r));
+            let v = e.verdict();
+            if v.froze {
+                tracing::warn!(
+                    "{}: the dance froze (speed ratio per 5 s {}, {:.0} % of 1-s windows below {:.3} m/s)",
+                    name,
+                    e.span_speed_ratios(),
+                    100.0 * e.freeze_fraction,
+                    r.freeze_threshold()
+                );
             }
-            _ => {
-                let speeds = qean_eval::motion_energy::joint_speeds(generated);
-                let per_span: Vec<String> = speeds
-                    .chunks(qean_eval::motion_energy::SPAN)
-                    .map(|c| format!("{:.2}", c.iter().sum::<f64>() / c.len() as f64))
-                    .collect();
-                println!(
-                    "  motion: speed per 5 s {} m/s (no reference: the run's dataset is not here, so no freeze check)",
-                    per_span.join(", ")
+            if !e.dances() && !v.froze && !v.jitters {
+                tracing::warn!(
+                    "{}: the dance moves too fast (speed ratio per 5 s {}, above 1.6 in a span)",
+                    name,
+                    e.span_speed_ratios()
+                );
+            }
+            if v.jitters {
+                tracing::warn!(
+                    "{}: the dance jitters (acceleration ratio per 5 s {}, reference {:.2} m/s²)",
+                    name,
+                    e.span_accel_ratios(),
+                    r.accel
                 );
             }
         }
+        _ => {
+            let speeds = qean_eval::motion_energy::joint_speeds(generated);
+            let per_span: Vec<String> = speeds
+                .chunks(qean_eval::motion_energy::SPAN)
+                .map(|c| format!("{:.2}", c.iter().sum::<f64>() / c.len() as f64))
+                .collect();
+            println!(
+                "  motion: speed per 5 s {} m/s (no reference: the run's dataset is not here, so no freeze check)",
+                per_span.join(", ")
+            );
+        }
     }
-    Ok(0)
+}
+
+/// `--decode NAME` for a TSMT run: the decoding, or one line saying what is wrong.
+pub fn decode_choice(
+    name: Option<&str>,
+    ck: &checkpoint::Checkpoint,
+) -> anyhow::Result<Option<qean_config::tsmt::TsmtDecode>> {
+    let Some(name) = name else {
+        return Ok(None);
+    };
+    let decode = name
+        .parse::<qean_config::tsmt::TsmtDecode>()
+        .map_err(|e| anyhow::anyhow!("--decode: {e}"))?;
+    if ck.config.tsmt.is_none() {
+        bail!(
+            "--decode is for TSMT runs (binned coordinates); {} is a {:?} run",
+            ck.dir.display(),
+            ck.config.model.arch
+        );
+    }
+    Ok(Some(decode))
 }
 
 /// `--view`: one page per song with its dance and music.

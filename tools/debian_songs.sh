@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Fetches the freely licensed songs of docs/freezing.md's "Songs in general" study from Debian's packages
+# (no model here was trained or tuned on them) into DIR (default: songs/), with each licence beside them:
+#   hyperrogue-music (CC BY-SA 3.0: Shawn Parrotte, Will Savino, Lincoln Domina; see its copyright file)
+#   supertux-data    (data/music/*: GPL-2+, Marek Moeckel and the SuperTux team; see its copyright file)
+# The study used 26-s mono excerpts from 10 s in (past the intros), written beside the tracks as
+# DIR/excerpts/*.ogg when python3 has the soundfile module.
+# Then, e.g.: qean sample --run qean-demo/runs/qean --music DIR/excerpts/hr3-desert.ogg --out dances
+set -euo pipefail
+out="${1:-songs}"
+mkdir -p "$out"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+(cd "$work" && apt-get download hyperrogue-music supertux-data >/dev/null)
+for deb in "$work"/*.deb; do
+  dpkg-deb -x "$deb" "$work/x"
+done
+hr="$work/x/usr/share/hyperrogue/music"
+st="$work/x/usr/share/games/supertux2/music"
+for f in hr3-desert hr3-jungle hr-savino-caribbean hr-savino-palace hr-domina-hunting; do
+  cp "$hr/$f.ogg" "$out/"
+done
+cp "$st/antarctic/chipdisko.ogg" "$out/"
+cp "$work/x/usr/share/doc/hyperrogue-music/copyright" "$out/hyperrogue-music.copyright"
+cp "$work/x/usr/share/doc/supertux-data/copyright" "$out/supertux-data.copyright"
+if python3 -c "import soundfile" 2>/dev/null; then
+  mkdir -p "$out/excerpts"
+  python3 - "$out" <<'PY'
+import sys, pathlib, soundfile as sf
+out = pathlib.Path(sys.argv[1])
+for f in sorted(out.glob("*.ogg")):
+    audio, sr = sf.read(f, always_2d=True)
+    clip = audio[10 * sr : 36 * sr].mean(axis=1)
+    tmp = out / "excerpts" / (f.stem + ".tmp.ogg")
+    sf.write(tmp, clip, sr, format="OGG", subtype="VORBIS")
+    tmp.rename(out / "excerpts" / f.name)
+PY
+fi
+ls -1 "$out" "$out/excerpts" 2>/dev/null
