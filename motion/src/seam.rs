@@ -178,7 +178,11 @@ mod tests {
         ease_joints(&mut eased, 2, &seed_last, 4);
         assert_eq!(eased[..3 * 24], decoded[..3 * 24]);
         for j in 0..24 {
-            assert!((eased[3 * 24 + j][0] - 0.03).abs() < 1e-12, "{:?}", eased[3 * 24 + j]);
+            assert!(
+                (eased[3 * 24 + j][0] - 0.03).abs() < 1e-12,
+                "{:?}",
+                eased[3 * 24 + j]
+            );
             for t in 7..10 {
                 assert_eq!(eased[t * 24 + j], decoded[t * 24 + j]);
             }
