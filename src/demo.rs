@@ -936,24 +936,24 @@ const CHAIN: [(&str, &str, &str); 3] = [
     ),
 ];
 
+/// A finished stage: its run name, its label and what training left.
+type TrainedStage = (&'static str, &'static str, Trained);
+
 /// Trains every stage (side by side, the VQ-VAE → GPT → genre chain in its own thread); `None` when
 /// interrupted. Each finished run with its name and label.
-fn train_stages(
-    opts: &DemoOptions,
-    data: &Path,
-) -> anyhow::Result<Option<Vec<(&'static str, &'static str, Trained)>>> {
+fn train_stages(opts: &DemoOptions, data: &Path) -> anyhow::Result<Option<Vec<TrainedStage>>> {
     let (side, chained) = std::thread::scope(|scope| {
         let chained = scope.spawn(|| -> anyhow::Result<Option<Vec<Trained>>> {
             let mut done = Vec::new();
             for stage in &CHAIN {
-                match train_all(opts, &data, std::slice::from_ref(stage))? {
+                match train_all(opts, data, std::slice::from_ref(stage))? {
                     Some(mut t) => done.push(t.remove(0)),
                     None => return Ok(None),
                 }
             }
             Ok(Some(done))
         });
-        let side = train_all(opts, &data, &PRESETS);
+        let side = train_all(opts, data, &PRESETS);
         (side, chained.join())
     });
     let chained = chained
