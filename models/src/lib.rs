@@ -1,6 +1,9 @@
 //! Burn modules for music-conditioned dance generation: FACT ("AI Choreographer", Li et al.,
 //! ICCV 2021; google-research/mint) and QEAN ("Quaternion-Enhanced Attention Network", Zhou
-//! et al.), with QEAN's SPE (rotary positions) and QRA (quaternion rotary attention).
+//! et al.), with QEAN's SPE (rotary positions) and QRA (quaternion rotary attention); Li et al.'s
+//! two-stream motion transformer ([`tsmt`], SPEC §11); Lin's in-betweener ([`inbetween`], §12);
+//! the motion VQ-VAE ([`vqvae`]) and the GPT over its codes with genre control and the genre
+//! classifier ([`control`], §13).
 //!
 //! Entry points:
 //! - the `[model]` table of a run config lives in qean-config (`qean_config::model`, no Burn);

@@ -1,4 +1,5 @@
-//! qean-train: training FACT, QEAN and TSMT from TOML run configs — run configs with `extends` and
+//! qean-train: training every model family (FACT, QEAN, TSMT, the in-betweener, the VQ-VAE, the GPT,
+//! genre control, the genre classifier) from TOML run configs — run configs with `extends` and
 //! `--set`, the training loop, LR schedules, metrics logs, atomic checkpoints with exact resume,
 //! sweeps, and the safetensors export.
 
