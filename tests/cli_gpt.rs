@@ -93,6 +93,12 @@ fn tiny_vq_gpt_trains_resumes_and_dances() {
     let split = dir.path().join("gpt_split");
     train("control/gpt_tiny.toml", &data, &split, &gpt_sets(3), false);
     train("control/gpt_tiny.toml", &data, &split, &gpt_sets(6), true);
+    // `gpt.token_shift_aug`: every training sequence tokenised from frame offsets 0..8.
+    let shifted = dir.path().join("gpt_shifted");
+    let mut sets = gpt_sets(1);
+    sets.push("gpt.token_shift_aug=true".into());
+    train("control/gpt_tiny.toml", &data, &shifted, &sets, false);
+    assert_eq!(train_sequences(&shifted), 8 * train_sequences(&straight));
     let cks = checkpoints(&straight);
     let last = |r: &Path| checkpoints(r).last().unwrap().clone();
     assert_eq!(params_hash(&last(&straight)), params_hash(&last(&split)));

@@ -163,6 +163,15 @@ fn tsmt_trains_resumes_samples_and_evaluates() {
     let dir = d.path().join("decode-coarse");
     let text = sample(&coarse, &dir, &["--decode", "coherent"]);
     assert!(text.contains("120 seed + 1200 generated frames"), "{text}");
+    // `tsmt.shift_aug`: the coarse grids from frames 1 and 2 train too (every sequence is long enough).
+    let shifted = d.path().join("coarse-shifted");
+    run_ok(train(&data, &shifted, 1).args([
+        "--set",
+        "tsmt.frame_step=3",
+        "--set",
+        "tsmt.shift_aug=true",
+    ]));
+    assert_eq!(train_sequences(&shifted), 3 * train_sequences(&coarse));
     // A decoding that does not exist, or one asked of another family: one line, nothing written.
     let bad = d.path().join("bad");
     let mut c = qean();

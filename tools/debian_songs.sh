@@ -35,5 +35,8 @@ for f in sorted(out.glob("*.ogg")):
     sf.write(tmp, clip, sr, format="OGG", subtype="VORBIS")
     tmp.rename(out / "excerpts" / f.name)
 PY
+  ls -1 "$out" "$out/excerpts"
+else
+  ls -1 "$out"
+  echo "python3 has no soundfile module (pip install soundfile): the full tracks only, no excerpts" >&2
 fi
-ls -1 "$out" "$out/excerpts" 2>/dev/null

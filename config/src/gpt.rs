@@ -62,6 +62,9 @@ pub struct GptConfig {
     /// (1 = off, the paper's picking; CTRL's repetition penalty).
     pub repetition_penalty: f64,
     pub repetition_window: usize,
+    /// SPEC §13.2.6 option: the training split is also tokenised from frame offsets 1..rate−1 (the music
+    /// shifted alike), so the GPT sees `rate` different token sequences of each dance instead of one.
+    pub token_shift_aug: bool,
 }
 
 impl Default for GptConfig {
@@ -96,6 +99,7 @@ impl GptConfig {
             temperature: 1.0,
             repetition_penalty: 1.0,
             repetition_window: 8,
+            token_shift_aug: false,
         }
     }
 

@@ -190,6 +190,9 @@ pub struct TsmtConfig {
     /// The model steps every `frame_step` frames of the 60 fps data (1: every frame, as SPEC §11.1 maps the
     /// paper; 3: 20 fps, near the paper's own 24 fps); sampled frames are interpolated back to 60 fps.
     pub frame_step: usize,
+    /// Ours: with `frame_step` > 1 the training split is also read on the grids from frames 1..frame_step−1
+    /// (each its own sequence), not only from frame 0, so the coarse rate throws no data away.
+    pub shift_aug: bool,
     /// How frames sampled at the coarse rate become 60 fps frames.
     pub upsample: TsmtUpsample,
     /// Ground-truth seed frames before generation.
@@ -238,6 +241,7 @@ impl TsmtConfig {
             subbin_radius: 3,
             coherent_seconds: 2.0,
             frame_step: 1,
+            shift_aug: false,
             upsample: TsmtUpsample::Bspline,
             seed_frames: 120,
             lr_start_factor: 1.0,

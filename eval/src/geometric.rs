@@ -5,6 +5,7 @@
 use crate::config::{GeometricVariant, MetricsMode};
 use crate::error::{Error, Result};
 use crate::positions::{Frame, N_JOINTS};
+use qean_motion::vec3::{cross, dot, norm, sub};
 
 pub const GEOMETRIC_DIM: usize = 32;
 pub const MIN_FRAMES: usize = 2;
@@ -345,24 +346,4 @@ pub fn evaluate(pred: &Predicate, cur: &Frame, prev: &Frame, tau: f64) -> bool {
         }
         Predicate::Fast { a, th } => norm(sub(cur[a], prev[a])) / tau > th,
     }
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
 }

@@ -17,6 +17,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::positions::Frame;
+use qean_motion::vec3::{norm, sub};
 
 /// Frames per second of every motion here.
 pub const FPS: f64 = 60.0;
@@ -32,7 +33,7 @@ pub fn joint_speeds(joints: &[Frame]) -> Vec<f64> {
     joints
         .windows(2)
         .map(|w| {
-            let s: f64 = (0..w[0].len()).map(|j| norm3(sub(w[1][j], w[0][j]))).sum();
+            let s: f64 = (0..w[0].len()).map(|j| norm(sub(w[1][j], w[0][j]))).sum();
             s / w[0].len() as f64 * FPS
         })
         .collect()
@@ -47,20 +48,12 @@ pub fn joint_accels(joints: &[Frame]) -> Vec<f64> {
                 .map(|j| {
                     let a: [f64; 3] =
                         std::array::from_fn(|k| w[2][j][k] - 2.0 * w[1][j][k] + w[0][j][k]);
-                    norm3(a)
+                    norm(a)
                 })
                 .sum();
             s / w[0].len() as f64 * FPS * FPS
         })
         .collect()
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn norm3(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
 }
 
 /// Mean speed of each 1-s window of a speed series (a short series is one window).

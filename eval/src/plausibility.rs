@@ -13,6 +13,7 @@ use std::f64::consts::PI;
 use qean_motion::ik::{inverse_kinematics, IkMode};
 use qean_motion::rotation::{mat_vec, matmul, transpose, Mat3};
 use qean_motion::skeleton::{OFFSETS, PARENTS};
+use qean_motion::vec3::{cross, dot, norm, sub};
 
 use crate::motion_beats::{rotation_angle, NON_LEAF};
 use crate::positions::{Frame, N_JOINTS};
@@ -72,20 +73,9 @@ pub fn euler_xyz(r: &Mat3) -> [f64; 3] {
     [(-r[5]).atan2(r[8]), b, (-r[1]).atan2(r[0])]
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
 /// The angle between two vectors, degrees.
 fn angle_deg(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let c = [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ];
-    let s = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-    s.atan2(a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
-        .to_degrees()
+    norm(cross(a, b)).atan2(dot(a, b)).to_degrees()
 }
 
 /// Whether one frame (positions and its `hinge` local rotations) is within every limit.

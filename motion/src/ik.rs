@@ -17,6 +17,7 @@ use crate::rotation::{
     IDENTITY,
 };
 use crate::skeleton::{NUM_JOINTS, OFFSETS, PARENTS, SMPL_MALE_PELVIS};
+use crate::vec3::{cross, dot, norm, scale, sub, unit};
 
 /// How rotations are chosen for single-child joints.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -50,35 +51,10 @@ fn only_child(j: usize) -> Option<usize> {
     }
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
-    let n = dot(a, a).sqrt();
-    (n > 1e-12).then(|| [a[0] / n, a[1] / n, a[2] / n])
-}
-
-fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-
 /// The minimal rotation taking unit `a` onto unit `b` (π about a perpendicular axis when opposite).
 pub fn swing_between(a: [f64; 3], b: [f64; 3]) -> Mat3 {
     let c = cross(a, b);
-    let s = dot(c, c).sqrt();
+    let s = norm(c);
     let angle = s.atan2(dot(a, b));
     match unit(c) {
         Some(axis) if s > 1e-12 => axis_angle_to_matrix(scale(axis, angle)),
@@ -268,7 +244,7 @@ mod tests {
     fn worst(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
         a.iter()
             .zip(b)
-            .map(|(x, y)| dot(sub(*x, *y), sub(*x, *y)).sqrt())
+            .map(|(x, y)| norm(sub(*x, *y)))
             .fold(0.0, f64::max)
     }
 

@@ -1,6 +1,6 @@
 //! qean-motion: motion math on the SMPL skeleton. Rotations (axis-angle, matrices, projection onto SO(3)),
 //! the skeleton's offsets and parents, forward kinematics, AIST++ motion files and the model's vector layouts
-//! (225 / 219), BVH, joint-position files, inverse kinematics from joint positions (`ik`), and the seam that eases a generated dance out of its seed.
+//! (225 / 219), BVH, joint-position files, inverse kinematics from joint positions (`ik`), the seam that eases a generated dance out of its seed, and the 3-vector helpers they share (`vec3`).
 
 pub mod bvh;
 pub mod fk;
@@ -11,6 +11,7 @@ pub mod pos72;
 pub mod rotation;
 pub mod seam;
 pub mod skeleton;
+pub mod vec3;
 
 pub use fk::FkRoot;
 pub use motion::{Layout, Motion};

@@ -10,7 +10,7 @@ use qean_audio::{self as audio, FeatureOptions, MusicFeatures};
 use qean_io::error::{Error, Result};
 use qean_models::autoregress::{AudioPad, SampleOptions, SampleRequest};
 use qean_motion::fk::FkRoot;
-use qean_motion::motion::Motion;
+use qean_motion::motion::{Layout, Motion};
 use qean_render::export::{export_dance, ExportOptions, ExportPaths};
 
 use qean_eval::run_report::SeedStart;
@@ -214,30 +214,51 @@ pub fn generate(
         qean_models::sampler::sample(&model, &device, &requests, &sample_opts, &mut progress)
             .map_err(|e| Error::msg(e.to_string()))?;
     let seed_frames = ck.config.model.motion_len;
-    let d = sample_opts.layout.dim();
     let mut written = Vec::new();
     for (song, dance) in songs.iter().zip(&dances) {
-        let paths = export_dance(
-            out,
-            &song.name,
-            dance,
-            sample_opts.layout,
-            &ExportOptions {
-                seed_frames,
-                beats: Some(song.features.beats.clone()),
-                render: opts.render,
-                root: FkRoot::Smpl,
-            },
-        )?;
         let joints = Motion::from_layout(dance, sample_opts.layout)
             .map_err(|e| Error::msg(format!("generated {}: {e}", song.name)))?
             .joints(FkRoot::Smpl);
-        written.push(Generated {
-            name: song.name.clone(),
-            generated: dance.len() / d - seed_frames,
-            paths,
+        let vectors = (dance.as_slice(), sample_opts.layout);
+        written.push(export_generated(
+            out,
+            song,
+            vectors,
             joints,
-        });
+            seed_frames,
+            opts.render,
+        )?);
     }
     Ok(written)
+}
+
+/// Every export of one generated dance (`vectors` in `layout`, seed frames first) to `out`, named after
+/// the song, and its record; `joints` are the dance's joint positions (SMPL root). Each family's sampler
+/// ends here.
+pub(crate) fn export_generated(
+    out: &Path,
+    song: &Song,
+    (vectors, layout): (&[f32], Layout),
+    joints: Vec<[f64; 3]>,
+    seed_frames: usize,
+    render: bool,
+) -> Result<Generated> {
+    let paths = export_dance(
+        out,
+        &song.name,
+        vectors,
+        layout,
+        &ExportOptions {
+            seed_frames,
+            beats: Some(song.features.beats.clone()),
+            render,
+            root: FkRoot::Smpl,
+        },
+    )?;
+    Ok(Generated {
+        name: song.name.clone(),
+        generated: vectors.len() / layout.dim() - seed_frames,
+        paths,
+        joints,
+    })
 }

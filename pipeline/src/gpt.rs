@@ -15,14 +15,13 @@ use qean_motion::fk::FkRoot;
 use qean_motion::ik::motion_from_joints;
 use qean_motion::motion::{Layout, Motion};
 use qean_motion::pos72::pos72_to_joints;
-use qean_render::export::{export_dance, ExportOptions};
 use qean_train::checkpoint::Checkpoint;
 use qean_train::genre::{genre_of_config, normal_noise, GenreFamily};
 use qean_train::gpt::{gpt_of, music_tokens, FrozenVq, GptFamily};
 use qean_train::vqvae::{denormalise, pos72_options, vq_of};
 use rand::{Rng, SeedableRng};
 
-use crate::generate::{GenerateOptions, Generated, Song};
+use crate::generate::{export_generated, GenerateOptions, Generated, Song};
 
 /// How each token is picked (SPEC §13.8 "Picking").
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -360,7 +359,7 @@ pub fn generate(
     );
     let mut written = Vec::new();
     for song in songs {
-        // Standardised with the run's statistics when it trained so (`recipe.audio_norm`).
+        // As the run heard music in training (`recipe.audio_norm`: split or per-track statistics).
         let features = ck
             .config
             .recipe
@@ -387,24 +386,14 @@ pub fn generate(
                 opts.frames
             );
         }
-        let paths = export_dance(
+        written.push(export_generated(
             out,
-            &song.name,
-            &motion.to_layout(Layout::L219),
-            Layout::L219,
-            &ExportOptions {
-                seed_frames: seed.frames,
-                beats: Some(song.features.beats.clone()),
-                render: opts.render,
-                root: FkRoot::Smpl,
-            },
-        )?;
-        written.push(Generated {
-            name: song.name.clone(),
-            generated: motion.frames - seed.frames,
-            paths,
-            joints: motion.joints(FkRoot::Smpl),
-        });
+            song,
+            (&motion.to_layout(Layout::L219), Layout::L219),
+            motion.joints(FkRoot::Smpl),
+            seed.frames,
+            opts.render,
+        )?);
     }
     Ok(written)
 }

@@ -15,11 +15,10 @@ use qean_motion::fk::FkRoot;
 use qean_motion::ik::motion_from_joints;
 use qean_motion::motion::{Layout, Motion};
 use qean_motion::skeleton::NUM_JOINTS;
-use qean_render::export::{export_dance, ExportOptions};
 use qean_train::checkpoint::Checkpoint;
 use qean_train::tsmt::TsmtFamily;
 
-use crate::generate::{GenerateOptions, Generated, Song};
+use crate::generate::{export_generated, GenerateOptions, Generated, Song};
 
 /// The sampling settings of a TSMT run with `opts`' overrides.
 pub fn sampling(t: &TsmtConfig, opts: &GenerateOptions) -> TsmtSampling {
@@ -216,24 +215,14 @@ pub fn generate(
     )?;
     let mut written = Vec::new();
     for (song, motion) in songs.iter().zip(&motions) {
-        let paths = export_dance(
+        written.push(export_generated(
             out,
-            &song.name,
-            &motion.to_layout(Layout::L219),
-            Layout::L219,
-            &ExportOptions {
-                seed_frames: seed.frames,
-                beats: Some(song.features.beats.clone()),
-                render: opts.render,
-                root: FkRoot::Smpl,
-            },
-        )?;
-        written.push(Generated {
-            name: song.name.clone(),
-            generated: motion.frames - seed.frames,
-            paths,
-            joints: motion.joints(FkRoot::Smpl),
-        });
+            song,
+            (&motion.to_layout(Layout::L219), Layout::L219),
+            motion.joints(FkRoot::Smpl),
+            seed.frames,
+            opts.render,
+        )?);
     }
     Ok(written)
 }

@@ -11,6 +11,7 @@ use qean_motion::fk::FkRoot;
 use qean_motion::motion::{Motion, FPS};
 use qean_motion::rotation::matrix_to_quaternion;
 use qean_motion::skeleton::{JOINT_NAMES, NUM_JOINTS, OFFSETS, PARENTS, SMPL_MALE_PELVIS};
+use qean_motion::vec3::{cross, norm, sub};
 use serde_json::{json, Value};
 
 /// glTF's FLOAT component type.
@@ -89,20 +90,9 @@ impl Buffer {
     }
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    std::array::from_fn(|k| a[k] - b[k])
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
+/// `a` at unit length (a near-zero vector stays near zero instead of dividing by 0).
 fn unit(a: [f64; 3]) -> [f64; 3] {
-    let n = a.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-12);
+    let n = norm(a).max(1e-12);
     a.map(|v| v / n)
 }
 

@@ -13,7 +13,7 @@ use qean_train::ProgressMode;
 /// and a verdict (does it keep dancing?); every model scored (FID_k, FID_g, Dist_k, Dist_g, BeatAlign,
 /// Li et al.'s metrics) next to chance baselines; the genre classifier and genre control's accuracy with
 /// their confusion matrices; then a test dance cut to 5 keys per measure and rebuilt by SLERP and by a
-/// tiny in-betweener. About 16 minutes on 2 CPU cores (`--quick`: about 1). Run it again to reuse
+/// tiny in-betweener. About 16–20 minutes on 2 CPU cores (`--quick`: about 1). Run it again to reuse
 /// finished stages; Ctrl-C stops training with a checkpoint and the next run continues.
 ///
 /// Example: qean demo --quick

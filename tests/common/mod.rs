@@ -159,3 +159,12 @@ pub fn checkpoints(run: &Path) -> Vec<PathBuf> {
     });
     v
 }
+
+/// The training-set size a run's train.log reports ("(N train sequences").
+pub fn train_sequences(run: &Path) -> usize {
+    let log = std::fs::read_to_string(run.join("train.log")).unwrap();
+    let (before, _) = log
+        .split_once(" train sequences")
+        .unwrap_or_else(|| panic!("no train-sequence count in {}", run.display()));
+    before.rsplit('(').next().unwrap().parse().unwrap()
+}

@@ -420,28 +420,48 @@ impl Family for GptFamily {
         let w = music_token_dim(g);
         let mut sequences = Vec::new();
         let mut skipped = frames.skipped.clone();
+        // SPEC §13.2.6 `token_shift_aug`: the training split tokenised from every frame offset of a token.
+        let offsets = if g.token_shift_aug && split == config.data.train_split {
+            g.rate
+        } else {
+            1
+        };
         for seq in &frames.sequences {
-            let n = seq.motion_frames.min(seq.audio_frames) / g.rate;
-            if n + 1 < spec.span() {
-                skipped.push(seq.name.clone());
-                continue;
-            }
             let motion = Motion::read_pkl(&dataset.motion_path(&seq.name))?;
-            let tokens = vq
-                .tokens(&motion, n * g.rate)
-                .map_err(|e| Error::msg(format!("{}: {e}", seq.name)))?;
-            let mut rows = vec![g.codes as f32];
-            rows.extend(tokens.iter().map(|&t| t as f32));
-            let mut audio = vec![0f32; w];
             let features = config.recipe.model_audio(seq.audio.to_vec(), FEATURES);
-            audio.extend(music_tokens(&features, n, g.rate));
-            sequences.push(Sequence {
-                name: seq.name.clone(),
-                motion: rows,
-                motion_frames: n + 1,
-                audio: Arc::new(audio),
-                audio_frames: n + 1,
-            });
+            for offset in 0..offsets {
+                let frames_left = seq
+                    .motion_frames
+                    .min(seq.audio_frames)
+                    .saturating_sub(offset);
+                let n = frames_left / g.rate;
+                if n + 1 < spec.span() {
+                    if offset == 0 {
+                        skipped.push(seq.name.clone());
+                    }
+                    continue;
+                }
+                let shifted = motion.slice(offset, motion.frames);
+                let tokens = vq
+                    .tokens(&shifted, n * g.rate)
+                    .map_err(|e| Error::msg(format!("{}: {e}", seq.name)))?;
+                let mut rows = vec![g.codes as f32];
+                rows.extend(tokens.iter().map(|&t| t as f32));
+                let mut audio = vec![0f32; w];
+                audio.extend(music_tokens(&features[offset * FEATURES..], n, g.rate));
+                sequences.push(Sequence {
+                    // The name keeps its AIST++ form (genre control reads the genre code from it).
+                    name: if offset == 0 {
+                        seq.name.clone()
+                    } else {
+                        format!("{}@{offset}", seq.name)
+                    },
+                    motion: rows,
+                    motion_frames: n + 1,
+                    audio: Arc::new(audio),
+                    audio_frames: n + 1,
+                });
+            }
         }
         if sequences.is_empty() {
             return Err(Error::at(

@@ -66,18 +66,25 @@ pub fn fit_bins(ds: &Dataset, split: Split, t: &TsmtConfig) -> Result<Bins> {
 
 /// `tsmt.frame_step` > 1: every sequence's token rows and music rows (MFCC + Δ, beat) at every `step`-th
 /// frame from frame 0 ([`qean_models::tsmt::coarse::Grid`]), so windows are drawn at the coarse rate.
-pub fn coarsened(set: SequenceSet, step: usize) -> SequenceSet {
+/// With `offsets` > 1 (`tsmt.shift_aug`, training split) also from frames 1..offsets−1, each such grid a
+/// sequence of its own (`NAME@offset`), so no frame of the data is thrown away.
+pub fn coarsened(set: SequenceSet, step: usize, offsets: usize) -> SequenceSet {
     use qean_models::tsmt::coarse::Grid;
     use qean_models::tsmt::sample::TsmtAudio;
-    let grid = Grid { step, offset: 0 };
     let d = set.dim;
-    let mut music: std::collections::HashMap<*const Vec<f32>, Arc<Vec<f32>>> = Default::default();
-    let sequences = set
-        .sequences
-        .iter()
-        .map(|seq| {
+    let mut music: std::collections::HashMap<(*const Vec<f32>, usize), Arc<Vec<f32>>> =
+        Default::default();
+    let mut sequences = Vec::new();
+    for seq in &set.sequences {
+        for offset in 0..offsets.clamp(1, step) {
+            let grid = Grid { step, offset };
+            let (motion_frames, audio_frames) =
+                (grid.count(seq.motion_frames), grid.count(seq.audio_frames));
+            if offset > 0 && motion_frames.min(audio_frames) < set.spec.span() {
+                continue;
+            }
             let audio = music
-                .entry(Arc::as_ptr(&seq.audio))
+                .entry((Arc::as_ptr(&seq.audio), offset))
                 .or_insert_with(|| {
                     let rows = &seq.audio[..seq.audio_frames * AUDIO_COLS];
                     let full = TsmtAudio {
@@ -101,15 +108,19 @@ pub fn coarsened(set: SequenceSet, step: usize) -> SequenceSet {
                     )
                 })
                 .clone();
-            Sequence {
-                name: seq.name.clone(),
+            sequences.push(Sequence {
+                name: if offset == 0 {
+                    seq.name.clone()
+                } else {
+                    format!("{}@{offset}", seq.name)
+                },
                 motion: grid.rows(&seq.motion[..seq.motion_frames * d], d),
-                motion_frames: grid.count(seq.motion_frames),
-                audio_frames: grid.count(seq.audio_frames),
+                motion_frames,
+                audio_frames,
                 audio,
-            }
-        })
-        .collect();
+            });
+        }
+    }
     SequenceSet { sequences, ..set }
 }
 
@@ -285,7 +296,12 @@ impl Family for TsmtFamily {
             },
         )?;
         let set = if t.frame_step > 1 {
-            coarsened(set, t.frame_step)
+            let offsets = if t.shift_aug && split == config.data.train_split {
+                t.frame_step
+            } else {
+                1
+            };
+            coarsened(set, t.frame_step, offsets)
         } else {
             set
         };
@@ -408,7 +424,20 @@ mod tests {
             }],
             skipped: vec![],
         };
-        let c = coarsened(set, 3);
+        let shifted = coarsened(set.clone(), 3, 3);
+        let c = coarsened(set, 3, 1);
+        assert_eq!(c.sequences.len(), 1);
+        // `tsmt.shift_aug`: grids from frames 1 and 2 too, each its own sequence.
+        let names: Vec<&str> = shifted.sequences.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["s", "s@1", "s@2"]);
+        assert_eq!(shifted.sequences[0].motion, c.sequences[0].motion);
+        let s2 = &shifted.sequences[2];
+        assert_eq!((s2.motion_frames, s2.audio_frames), (10, 10));
+        assert_eq!(&s2.motion[..6], &[2.0, 2.0, 5.0, 5.0, 8.0, 8.0]);
+        assert_eq!(
+            s2.audio[cols], 500.0,
+            "coarse frame 1 of offset 2 is real frame 5"
+        );
         let s = &c.sequences[0];
         assert_eq!((s.motion_frames, s.audio_frames), (10, 10));
         assert_eq!(&s.motion[..6], &[0.0, 0.0, 3.0, 3.0, 6.0, 6.0]);
