@@ -12,7 +12,7 @@ use qean_eval::curves::CurvesRequest;
 use qean_eval::dirs::{evaluate_dirs, DirRequest};
 use qean_eval::run_report::{Protocol, SeedStart};
 use qean_models::autoregress::AudioPad;
-use qean_pipeline::evaluate::{evaluate_run, RunEvalRequest, SamplingOverrides};
+use qean_pipeline::evaluate::{RunEvalRequest, SamplingOverrides};
 
 /// Evaluate generated dance motion against AIST++ ground truth: FID_k, FID_g, Dist_k, Dist_g and
 /// BeatAlign, computed as Bailando's and mint's reference code computes them (bugs included by
@@ -321,17 +321,10 @@ pub fn run_eval(args: &Args) -> anyhow::Result<String> {
     match &args.run {
         Some(run) => {
             let req = args.run_request(run)?;
-            let ck = qean_train::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref());
-            if ck.as_ref().is_ok_and(|c| c.config.is_vqvae()) {
-                return Ok(qean_pipeline::vq::evaluate_vq(&req)?.1);
-            }
-            if ck.as_ref().is_ok_and(|c| c.config.is_genre_clf()) {
-                return Ok(qean_pipeline::genre_clf::evaluate_clf(&req)?.1);
-            }
-            if let Some(clf) = &args.classifier {
-                return Ok(qean_pipeline::genre_control::control_test(&req, clf)?.1);
-            }
-            Ok(evaluate_run(&req)?.table)
+            Ok(qean_pipeline::evaluate::evaluate_family(
+                &req,
+                args.classifier.as_deref(),
+            )?)
         }
         None => Ok(evaluate_dirs(&args.dir_request()?)?.1),
     }
@@ -413,7 +406,7 @@ pub fn run_curves(a: &CurvesArgs) -> anyhow::Result<String> {
 /// `qean eval --task inbetween`: Lin's reconstruction benchmark.
 fn run_inbetween(args: &Args) -> anyhow::Result<String> {
     use qean_keyframes::select::Strategy;
-    use qean_pipeline::inbetween::{default_rows, run, IbMethod, InbetweenRequest};
+    use qean_pipeline::inbetween_benchmark::{default_rows, run, IbMethod, InbetweenRequest};
     let data = args
         .data
         .clone()

@@ -12,7 +12,7 @@ pub struct Settings {
     pub keyframes: KeyframeOptions,
     pub bezier: BezierSettings,
     pub mse_space: MseSpace,
-    pub fid_reference: qean_pipeline::inbetween::FidReference,
+    pub fid_reference: qean_pipeline::inbetween_benchmark::FidReference,
 }
 
 fn first_line(e: impl std::fmt::Display) -> String {
@@ -50,7 +50,7 @@ pub fn parse(sets: &[String]) -> anyhow::Result<Settings> {
                     "mse_space" => s.mse_space = MseSpace::deserialize(value).map_err(bad)?,
                     "fid_reference" => {
                         s.fid_reference =
-                            qean_pipeline::inbetween::FidReference::deserialize(value).map_err(bad)?
+                            qean_pipeline::inbetween_benchmark::FidReference::deserialize(value).map_err(bad)?
                     }
                     other => anyhow::bail!(
                         "--set {spec}: unknown [inbetween] setting {other:?} (bezier_param, bezier_average, mse_space, fid_reference)"

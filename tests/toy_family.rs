@@ -78,11 +78,11 @@ impl Family for ToyFamily {
     type Model = Toy;
     type Inputs = (Tensor<3>, Tensor<3>, Tensor<3>);
 
-    fn init(&self, config: &RunConfig, device: &Device) -> Toy {
+    fn init(&self, config: &RunConfig, device: &Device) -> qean_io::Result<Toy> {
         let d = config.layout().dim();
-        Toy {
+        Ok(Toy {
             layer: LinearConfig::new(d + AUDIO_DIM, d).init(device),
-        }
+        })
     }
 
     fn prepare(
@@ -164,6 +164,7 @@ fn a_toy_family_trains_resumes_exactly_and_samples_through_the_trainer() {
         real_music: Vec::new(),
         varied_music: false,
         genre_postures: false,
+        genre_music: false,
     };
     qean_synth::generate(&data, &synth).unwrap();
     let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");

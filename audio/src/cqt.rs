@@ -257,6 +257,31 @@ fn num_two_factors(x: usize) -> usize {
     }
 }
 
+/// librosa's `__trim_stack`: the octaves' responses (top octave first) stacked into frames × n_bins, filling
+/// bins from the top down, cut to the shortest response; with that frame count.
+fn trim_stack(responses: &[Spectrogram], n_bins: usize) -> (Vec<f64>, usize) {
+    let max_col = responses.iter().map(|r| r.n_frames).min().unwrap_or(0);
+    let mut out = vec![0.0; max_col * n_bins];
+    let mut end = n_bins;
+    for r in responses {
+        let n_oct = r.n_bins;
+        let (dst0, src0, cnt) = if end < n_oct {
+            (0, n_oct - end, end)
+        } else {
+            (end - n_oct, 0, n_oct)
+        };
+        for t in 0..max_col {
+            let src = &r.frame(t)[src0..src0 + cnt];
+            out[t * n_bins + dst0..t * n_bins + dst0 + cnt].copy_from_slice(src);
+        }
+        end = end.saturating_sub(n_oct);
+        if end == 0 {
+            break;
+        }
+    }
+    (out, max_col)
+}
+
 /// |CQT| (librosa 0.8.1 `np.abs(cqt(y, sr, hop_length, fmin, n_bins, bins_per_octave, tuning=0))`),
 /// frame-major: frames × n_bins, bin 0 = fmin.
 pub fn cqt_magnitude(
@@ -341,26 +366,7 @@ pub fn cqt_magnitude(
         responses.push(response(&my_y, my_hop, &basis));
     }
 
-    // __trim_stack: top octave first, filling bins from the top down.
-    let max_col = responses.iter().map(|r| r.n_frames).min().unwrap_or(0);
-    let mut out = vec![0.0; max_col * n_bins];
-    let mut end = n_bins;
-    for r in &responses {
-        let n_oct = r.n_bins;
-        let (dst0, src0, cnt) = if end < n_oct {
-            (0, n_oct - end, end)
-        } else {
-            (end - n_oct, 0, n_oct)
-        };
-        for t in 0..max_col {
-            let src = &r.frame(t)[src0..src0 + cnt];
-            out[t * n_bins + dst0..t * n_bins + dst0 + cnt].copy_from_slice(src);
-        }
-        end = end.saturating_sub(n_oct);
-        if end == 0 {
-            break;
-        }
-    }
+    let (mut out, max_col) = trim_stack(&responses, n_bins);
     // scale=True: divide every bin by sqrt(filter length at the (possibly early-downsampled) rate).
     let lengths = filter_lengths(sr, fmin, n_bins, bins_per_octave)?;
     let inv: Vec<f64> = lengths.iter().map(|l| 1.0 / l.sqrt()).collect();

@@ -13,13 +13,15 @@ pub mod model;
 pub mod recipe;
 pub mod run;
 pub mod schedule;
+pub mod spec;
 pub mod sweep;
 pub mod tsmt;
-pub mod vq;
+pub mod vqvae;
 
 pub use model::{ConfigError, ModelConfig};
 pub use recipe::{AudioNorm, Predict, RecipeBase, RecipeConfig, RolloutMode};
 pub use run::RunConfig;
+pub use spec::ModelSpec;
 
 /// Backend names a run config and `--backend` accept (qean-models builds the device).
 pub const BACKENDS: [&str; 3] = ["flex", "ndarray", "wgpu"];

@@ -7,7 +7,8 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::model::{load_merged_table_checked, ConfigError, ModelConfig};
+use crate::model::{load_merged_table_checked, Arch, ConfigError, ModelConfig};
+use crate::spec::ModelSpec;
 use qean_aistpp::dataset::Split;
 use qean_aistpp::windows::WindowSpec;
 use qean_motion::motion::Layout;
@@ -20,7 +21,7 @@ use crate::inbetween::InbetweenConfig;
 use crate::recipe::RecipeConfig;
 use crate::schedule::ScheduleConfig;
 use crate::tsmt::TsmtConfig;
-use crate::vq::VqConfig;
+use crate::vqvae::VqConfig;
 
 /// `[data]`: where the AIST++-layout dataset is and which splits to use.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -261,7 +262,7 @@ fn check_section<T>(
     wanted: bool,
     name: &str,
     arch: &str,
-    actual: crate::model::Arch,
+    actual: Arch,
     validate: impl Fn(&T) -> Result<(), String>,
 ) -> Result<(), String> {
     let article = if name.starts_with('i') { "an" } else { "a" };
@@ -293,23 +294,18 @@ impl RunConfig {
         let mut config: RunConfig = toml::Value::Table(table)
             .try_into()
             .map_err(|e: toml::de::Error| ConfigError::new(path, None, e.message().trim()))?;
-        if config.is_tsmt() && config.tsmt.is_none() {
-            config.tsmt = Some(TsmtConfig::default());
-        }
-        if config.is_inbetween() && config.inbetween.is_none() {
-            config.inbetween = Some(InbetweenConfig::default());
-        }
-        if config.is_vqvae() && config.vq.is_none() {
-            config.vq = Some(VqConfig::default());
-        }
-        if config.is_genre_clf() && config.genre_clf.is_none() {
-            config.genre_clf = Some(GenreClfConfig::default());
-        }
-        if config.is_gpt() && config.gpt.is_none() {
-            config.gpt = Some(GptConfig::default());
-        }
-        if config.is_gpt_genre() && config.genre.is_none() {
-            config.genre = Some(GenreConfig::default());
+        // The family's table, with its defaults where the file has none.
+        match config.model.arch {
+            Arch::Fact | Arch::Qean => {}
+            Arch::Tsmt => drop(config.tsmt.get_or_insert_with(Default::default)),
+            Arch::Inbetween => drop(config.inbetween.get_or_insert_with(Default::default)),
+            Arch::Vqvae => drop(config.vq.get_or_insert_with(Default::default)),
+            Arch::GenreClf => drop(config.genre_clf.get_or_insert_with(Default::default)),
+            Arch::Gpt => drop(config.gpt.get_or_insert_with(Default::default)),
+            Arch::GptGenre => {
+                config.gpt.get_or_insert_with(Default::default);
+                config.genre.get_or_insert_with(Default::default);
+            }
         }
         config
             .validate()
@@ -321,9 +317,10 @@ impl RunConfig {
     pub fn validate(&self) -> Result<(), String> {
         self.model.validate().map_err(|m| format!("[model]: {m}"))?;
         let arch = self.model.arch;
+        let wants = |a: &[Arch]| a.contains(&arch);
         check_section(
             self.tsmt.as_ref(),
-            self.is_tsmt(),
+            wants(&[Arch::Tsmt]),
             "tsmt",
             "tsmt",
             arch,
@@ -331,7 +328,7 @@ impl RunConfig {
         )?;
         check_section(
             self.inbetween.as_ref(),
-            self.is_inbetween(),
+            wants(&[Arch::Inbetween]),
             "inbetween",
             "inbetween",
             arch,
@@ -339,18 +336,23 @@ impl RunConfig {
         )?;
         check_section(
             self.genre_clf.as_ref(),
-            self.is_genre_clf(),
+            wants(&[Arch::GenreClf]),
             "genre_clf",
             "genre_clf",
             arch,
             |t| t.validate(),
         )?;
-        check_section(self.gpt.as_ref(), self.is_gpt(), "gpt", "gpt", arch, |t| {
-            t.validate()
-        })?;
+        check_section(
+            self.gpt.as_ref(),
+            wants(&[Arch::Gpt, Arch::GptGenre]),
+            "gpt",
+            "gpt",
+            arch,
+            |t| t.validate(),
+        )?;
         check_section(
             self.genre.as_ref(),
-            self.is_gpt_genre(),
+            wants(&[Arch::GptGenre]),
             "genre",
             "gpt_genre",
             arch,
@@ -358,7 +360,7 @@ impl RunConfig {
         )?;
         check_section(
             self.vq.as_ref(),
-            self.is_vqvae(),
+            wants(&[Arch::Vqvae]),
             "vq",
             "vqvae",
             arch,
@@ -409,46 +411,12 @@ impl RunConfig {
         Ok(())
     }
 
-    /// Whether the run is Li et al.'s two-stream motion transformer (`model.arch = "tsmt"`).
-    pub fn is_tsmt(&self) -> bool {
-        self.model.arch == crate::model::Arch::Tsmt
-    }
-
-    /// Whether the run is one of Lin's transformer in-betweeners (`model.arch = "inbetween"`).
-    pub fn is_inbetween(&self) -> bool {
-        self.model.arch == crate::model::Arch::Inbetween
-    }
-
-    /// Whether the run is the genre classifier (`model.arch = "genre_clf"`).
-    pub fn is_genre_clf(&self) -> bool {
-        self.model.arch == crate::model::Arch::GenreClf
-    }
-
-    /// Whether the run is a music-to-dance GPT: the plain one (`model.arch = "gpt"`) or one with a
-    /// genre module (`"gpt_genre"`).
-    pub fn is_gpt(&self) -> bool {
-        matches!(
-            self.model.arch,
-            crate::model::Arch::Gpt | crate::model::Arch::GptGenre
-        )
-    }
-
-    /// Whether the run is the genre-control stage over a frozen GPT (`model.arch = "gpt_genre"`).
-    pub fn is_gpt_genre(&self) -> bool {
-        self.model.arch == crate::model::Arch::GptGenre
-    }
-
-    /// Whether the run is the motion VQ-VAE (`model.arch = "vqvae"`).
-    pub fn is_vqvae(&self) -> bool {
-        self.model.arch == crate::model::Arch::Vqvae
-    }
-
     /// The `[inbetween]` table of an in-betweener run (the paper preset for any other run).
     pub fn inbetween(&self) -> InbetweenConfig {
         self.inbetween.clone().unwrap_or_default()
     }
 
-    /// The `[tsmt]` table of a TSMT run (the paper preset for any other: callers check `is_tsmt`).
+    /// The `[tsmt]` table of a TSMT run (the paper preset for any other: callers match on `spec()`).
     pub fn tsmt(&self) -> TsmtConfig {
         self.tsmt.clone().unwrap_or_default()
     }
@@ -456,23 +424,19 @@ impl RunConfig {
     /// Ground-truth frames a generated dance starts with: the model's motion window (FACT, QEAN) or
     /// `tsmt.seed_frames`.
     pub fn seed_frames(&self) -> usize {
-        if let (true, Some(g)) = (self.is_gpt(), &self.gpt) {
-            return g.seed_tokens * g.rate;
-        }
-        match (&self.tsmt, self.is_tsmt()) {
-            (Some(t), true) => t.seed_frames,
+        match self.spec() {
+            ModelSpec::Gpt(g) | ModelSpec::GptGenre(g, _) => g.seed_tokens * g.rate,
+            ModelSpec::Tsmt(t) => t.seed_frames,
             _ => self.model.motion_len,
         }
     }
 
     /// The shortest music the sampler can dance to: the music window (FACT, QEAN), or the seed
-    /// and one frame to hear (TSMT).
+    /// and one frame to hear (TSMT, one token for the GPT).
     pub fn min_music_frames(&self) -> usize {
-        if let (true, Some(g)) = (self.is_gpt(), &self.gpt) {
-            return (g.seed_tokens + 1) * g.rate;
-        }
-        match (&self.tsmt, self.is_tsmt()) {
-            (Some(t), true) => t.seed_frames + 1,
+        match self.spec() {
+            ModelSpec::Gpt(g) | ModelSpec::GptGenre(g, _) => (g.seed_tokens + 1) * g.rate,
+            ModelSpec::Tsmt(t) => t.seed_frames + 1,
             _ => self.model.audio_len,
         }
     }
@@ -481,43 +445,33 @@ impl RunConfig {
     /// §11.7: W input frames, the W frames after each, and the music rows s..s+W, of which the
     /// model takes s+1..s+W).
     pub fn window_spec(&self) -> WindowSpec {
-        if let (true, Some(g)) = (self.is_genre_clf(), &self.genre_clf) {
-            return WindowSpec {
-                motion_len: g.window,
-                target_len: g.window,
-                target_shift: 0,
-                audio_len: g.window,
-            };
-        }
-        if let (true, Some(g)) = (self.is_gpt(), &self.gpt) {
-            return WindowSpec {
+        let same = |w: usize| WindowSpec {
+            motion_len: w,
+            target_len: w,
+            target_shift: 0,
+            audio_len: w,
+        };
+        match self.spec() {
+            ModelSpec::GenreClf(g) => same(g.window),
+            ModelSpec::Vqvae(v) => same(v.window),
+            ModelSpec::Gpt(g) | ModelSpec::GptGenre(g, _) => WindowSpec {
                 motion_len: g.window,
                 target_len: g.window,
                 target_shift: 1,
                 audio_len: g.window + 1 + g.music_lookahead,
-            };
-        }
-        if let (true, Some(v)) = (self.is_vqvae(), &self.vq) {
-            return WindowSpec {
-                motion_len: v.window,
-                target_len: v.window,
-                target_shift: 0,
-                audio_len: v.window,
-            };
-        }
-        if let (true, Some(t)) = (self.is_tsmt(), &self.tsmt) {
-            return WindowSpec {
+            },
+            ModelSpec::Tsmt(t) => WindowSpec {
                 motion_len: t.window,
                 target_len: t.window,
                 target_shift: 1,
                 audio_len: t.window + 1,
-            };
-        }
-        WindowSpec {
-            motion_len: self.model.motion_len,
-            target_len: self.model.target_len,
-            target_shift: self.model.motion_len,
-            audio_len: self.model.audio_len,
+            },
+            ModelSpec::FactQean(_) | ModelSpec::Inbetween(_) => WindowSpec {
+                motion_len: self.model.motion_len,
+                target_len: self.model.target_len,
+                target_shift: self.model.motion_len,
+                audio_len: self.model.audio_len,
+            },
         }
     }
 
@@ -542,76 +496,61 @@ impl RunConfig {
 
     /// One line: architecture, size and run length.
     pub fn summary(&self) -> String {
-        if let (true, Some(g)) = (self.is_genre_clf(), &self.genre_clf) {
-            return format!(
-                "genre classifier width {} window {}; batch {} steps {} seed {}",
-                g.width, g.window, self.train.batch_size, self.train.steps, self.train.seed
-            );
-        }
-        if let (true, Some(g), Some(c)) = (self.is_gpt_genre(), &self.gpt, &self.genre) {
-            return format!(
-                "genre control z {} tokens {} disc {}×{} ff {} {:?} {:?} over gpt hidden {} window {}; batch {} steps {} seed {}",
+        let run = format!(
+            "batch {} steps {} seed {}",
+            self.train.batch_size, self.train.steps, self.train.seed
+        );
+        match self.spec() {
+            ModelSpec::GenreClf(g) => {
+                format!("genre classifier width {} window {}; {run}", g.width, g.window)
+            }
+            ModelSpec::GptGenre(g, c) => format!(
+                "genre control z {} tokens {} disc {}×{} ff {} {:?} {:?} over gpt hidden {} window {}; {run}",
                 c.z_dim, c.tokens, c.disc_width, c.disc_layers, c.disc_ff, c.gan_loss, c.relax,
-                g.hidden, g.window, self.train.batch_size, self.train.steps, self.train.seed
+                g.hidden, g.window
             )
-            .to_lowercase();
-        }
-        if let (true, Some(g)) = (self.is_gpt(), &self.gpt) {
-            return format!(
-                "gpt hidden {} heads {} layers {} + {} window {} codes {} {:?}; batch {} steps {} seed {}",
-                g.hidden, g.heads, g.base_layers, g.head_layers, g.window, g.codes, g.m_layout,
-                self.train.batch_size, self.train.steps, self.train.seed
+            .to_lowercase(),
+            ModelSpec::Gpt(g) => format!(
+                "gpt hidden {} heads {} layers {} + {} window {} codes {} {:?}; {run}",
+                g.hidden, g.heads, g.base_layers, g.head_layers, g.window, g.codes, g.m_layout
             )
-            .to_lowercase();
-        }
-        if let (true, Some(v)) = (self.is_vqvae(), &self.vq) {
-            return format!(
-                "vq-vae width {} codes {}×{} depth {} down_t {} window {} {:?} mu {} commit {}; batch {} steps {} seed {}",
-                v.width, v.codes, v.code_dim, v.depth, v.down_t, v.window, v.quantizer, v.mu, v.commit,
-                self.train.batch_size, self.train.steps, self.train.seed
+            .to_lowercase(),
+            ModelSpec::Vqvae(v) => format!(
+                "vq-vae width {} codes {}×{} depth {} down_t {} window {} {:?} mu {} commit {}; {run}",
+                v.width, v.codes, v.code_dim, v.depth, v.down_t, v.window, v.quantizer, v.mu, v.commit
             )
-            .to_lowercase();
-        }
-        if let (true, Some(i)) = (self.is_inbetween(), &self.inbetween) {
-            return format!(
-                "in-betweener {} hidden {} heads {} ffn {} layers {} (+{} music) dropout {} base {:?} keys {}{}{}; batch {} steps {} seed {}",
+            .to_lowercase(),
+            ModelSpec::Inbetween(i) => format!(
+                "in-betweener {} hidden {} heads {} ffn {} layers {} (+{} music) dropout {} base {:?} keys {}{}{}; {run}",
                 i.variant.name(), i.hidden, i.heads, i.ffn, i.layers,
                 if i.variant.has_audio() { i.audio_layers } else { 0 },
                 i.dropout, i.base, i.train_keys, if i.mixed_keys { " (mixed 3/5/9)" } else { "" },
-                if i.random_keys { " at random frames" } else { "" },
-                self.train.batch_size, self.train.steps, self.train.seed
+                if i.random_keys { " at random frames" } else { "" }
             )
-            .to_lowercase();
-        }
-        if let (true, Some(t)) = (self.is_tsmt(), &self.tsmt) {
-            return format!(
-                "tsmt bins {} ({:?}) root {:?} window {} embed {} hidden {} heads {}×{} layers {}; audio {:?} hidden {} heads {}×{} layers {}; d_out {} dropout {}; batch {} steps {} seed {}",
+            .to_lowercase(),
+            ModelSpec::Tsmt(t) => format!(
+                "tsmt bins {} ({:?}) root {:?} window {} embed {} hidden {} heads {}×{} layers {}; audio {:?} hidden {} heads {}×{} layers {}; d_out {} dropout {}; {run}",
                 t.n_bins, t.bins_mode, t.root_mode, t.window, t.embed, t.hidden, t.heads, t.head_dim,
                 t.layers, t.audio_streams, t.audio_hidden, t.audio_heads, t.audio_head_dim,
-                t.audio_layers, t.d_out, t.dropout, self.train.batch_size, self.train.steps,
-                self.train.seed
+                t.audio_layers, t.d_out, t.dropout
             )
-            .to_lowercase();
+            .to_lowercase(),
+            ModelSpec::FactQean(m) => format!(
+                "{:?} hidden {} heads {} ffn {} layers {}-{}-{} position {:?} attention {:?} dropout {}; {run}; {}",
+                m.arch,
+                m.hidden,
+                m.heads,
+                m.ffn,
+                m.motion_layers,
+                m.audio_layers,
+                m.cross_layers,
+                m.position,
+                m.attention,
+                m.dropout,
+                self.recipe.describe()
+            )
+            .to_lowercase(),
         }
-        let m = &self.model;
-        format!(
-            "{:?} hidden {} heads {} ffn {} layers {}-{}-{} position {:?} attention {:?} dropout {}; batch {} steps {} seed {}; {}",
-            m.arch,
-            m.hidden,
-            m.heads,
-            m.ffn,
-            m.motion_layers,
-            m.audio_layers,
-            m.cross_layers,
-            m.position,
-            m.attention,
-            m.dropout,
-            self.train.batch_size,
-            self.train.steps,
-            self.train.seed,
-            self.recipe.describe()
-        )
-        .to_lowercase()
     }
 }
 
@@ -768,7 +707,7 @@ mod tests {
         let d = tempfile::tempdir().unwrap();
         let p = write(d.path(), "t.toml", "[model]\narch = \"tsmt\"\n");
         let c = RunConfig::load(&p, &["tsmt.window=32".into()]).unwrap();
-        assert!(c.is_tsmt());
+        assert!(matches!(c.spec(), ModelSpec::Tsmt(_)));
         assert_eq!(c.tsmt().window, 32);
         assert_eq!(c.tsmt().hidden, 128);
         let spec = c.window_spec();

@@ -91,6 +91,27 @@ fn safe_name(s: &str) -> String {
         .collect()
 }
 
+/// Every combination of the grid's values (keys in sorted order); one empty combination without a grid.
+fn grid_combinations(path: &Path, sweep: &SweepConfig) -> Result<Vec<Vec<(String, toml::Value)>>> {
+    let mut combos: Vec<Vec<(String, toml::Value)>> = vec![vec![]];
+    for (key, values) in &sweep.grid {
+        if values.is_empty() {
+            return Err(Error::at(path, format!("grid key `{key}` has no values")));
+        }
+        combos = combos
+            .into_iter()
+            .flat_map(|c| {
+                values.iter().map(move |v| {
+                    let mut c = c.clone();
+                    c.push((key.clone(), v.clone()));
+                    c
+                })
+            })
+            .collect();
+    }
+    Ok(combos)
+}
+
 /// Reads a sweep file and plans its runs; `extra` overrides (the CLI's `--set`) apply to every run.
 /// `out` defaults to `S-runs` beside the sweep file.
 pub fn plan(
@@ -126,23 +147,7 @@ pub fn plan(
             here.join(format!("{stem}-runs"))
         }
     };
-    // Grid combinations (keys in sorted order).
-    let mut combos: Vec<Vec<(String, toml::Value)>> = vec![vec![]];
-    for (key, values) in &sweep.grid {
-        if values.is_empty() {
-            return Err(Error::at(path, format!("grid key `{key}` has no values")));
-        }
-        combos = combos
-            .into_iter()
-            .flat_map(|c| {
-                values.iter().map(move |v| {
-                    let mut c = c.clone();
-                    c.push((key.clone(), v.clone()));
-                    c
-                })
-            })
-            .collect();
-    }
+    let combos = grid_combinations(path, &sweep)?;
     let mut runs = Vec::new();
     for variant in &sweep.variant {
         let config_path = variant

@@ -353,6 +353,11 @@ impl TsmtConfig {
                 self.lr_start_factor
             ));
         }
+        self.validate_bins()
+    }
+
+    /// The explicit bin ranges (`bins_lo`, `bins_hi`): one finite lo < hi per coordinate, or none.
+    fn validate_bins(&self) -> Result<(), String> {
         if self.bins_lo.len() != self.bins_hi.len() {
             return Err("tsmt.bins_lo and tsmt.bins_hi must have the same length".into());
         }

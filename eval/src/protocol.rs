@@ -383,6 +383,48 @@ pub fn hold_exploded(
     (held, record)
 }
 
+/// The kinetic and geometric features of the generated dances' evaluated frames and of the reference set.
+fn features_of_sets(
+    gen: &[(&Sequence, usize)],
+    refs: &[&Sequence],
+    cfg: &EvalConfig,
+) -> Result<(Vec<Features>, Vec<Features>)> {
+    let gen_feats: Vec<Features> = gen
+        .par_iter()
+        .map(|(s, len)| features_of(&s.joints[cfg.seed_frames..cfg.seed_frames + len], cfg))
+        .collect::<Result<_>>()?;
+    let ref_feats: Vec<Features> = refs
+        .par_iter()
+        .map(|s| features_of(&s.joints, cfg))
+        .collect::<Result<_>>()?;
+    Ok((gen_feats, ref_feats))
+}
+
+/// The report's line per generated dance.
+fn per_sequence(
+    gen: &[(&Sequence, usize)],
+    gen_feats: Vec<Features>,
+    scores: &[Option<BeatScores>],
+    music_ids: Vec<Option<String>>,
+    seq_energy: Vec<crate::motion_energy::MotionEnergy>,
+) -> Vec<SequenceMetrics> {
+    gen.iter()
+        .zip(gen_feats)
+        .zip(scores.iter().zip(music_ids))
+        .zip(seq_energy)
+        .map(|((((s, len), f), (sc, id)), energy)| SequenceMetrics {
+            name: s.name.clone(),
+            music_id: id,
+            frames: *len,
+            beat_align_bailando: sc.and_then(|x| x.bailando),
+            beat_align_mint: sc.and_then(|x| x.mint),
+            kinetic: f.kinetic,
+            geometric: f.geometric,
+            motion_energy: Some(energy),
+        })
+        .collect()
+}
+
 /// Evaluate `generated` (seed ++ generated frames, per `cfg.seed_frames`) against the GT
 /// `reference` set (full length). With `music_beats`, BeatAlign is computed too.
 ///
@@ -411,14 +453,7 @@ pub fn evaluate(
         "computing features ({})",
         cfg.label()
     );
-    let gen_feats: Vec<Features> = gen
-        .par_iter()
-        .map(|(s, len)| features_of(&s.joints[cfg.seed_frames..cfg.seed_frames + len], cfg))
-        .collect::<Result<_>>()?;
-    let ref_feats: Vec<Features> = refs
-        .par_iter()
-        .map(|s| features_of(&s.joints, cfg))
-        .collect::<Result<_>>()?;
+    let (gen_feats, ref_feats) = features_of_sets(&gen, &refs, cfg)?;
     let Distribution {
         fid_k,
         fid_g,
@@ -453,22 +488,7 @@ pub fn evaluate(
         BaVariant::Mint => (ba_m, n_m, gt_m, gn_m),
     };
 
-    let sequences = gen
-        .iter()
-        .zip(gen_feats)
-        .zip(scores.iter().zip(music_ids))
-        .zip(seq_energy)
-        .map(|((((s, len), f), (sc, id)), energy)| SequenceMetrics {
-            name: s.name.clone(),
-            music_id: id,
-            frames: *len,
-            beat_align_bailando: sc.and_then(|x| x.bailando),
-            beat_align_mint: sc.and_then(|x| x.mint),
-            kinetic: f.kinetic,
-            geometric: f.geometric,
-            motion_energy: Some(energy),
-        })
-        .collect();
+    let sequences = per_sequence(&gen, gen_feats, &scores, music_ids, seq_energy);
     let report = MetricsReport {
         config: cfg.clone(),
         label: cfg.label(),

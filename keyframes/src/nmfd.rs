@@ -119,6 +119,48 @@ pub fn nmfd(v: &[f64], bins: usize, size: &NmfdSize) -> Nmfd {
     nmfd_from(v, bins, size, random_templates(bins, size))
 }
 
+/// Λ = Σ_τ W_τ·shift_τ(H) + EPS (K × M), for W (K × R × T) and H (R × M).
+fn approximate(lambda: &mut [f64], w: &[f64], h: &[f64], (r_n, t_n, m_n): (usize, usize, usize)) {
+    lambda.par_chunks_mut(m_n).enumerate().for_each(|(k, row)| {
+        row.fill(0.0);
+        let mut tmp = vec![0.0; m_n];
+        for t in 0..t_n {
+            tmp.fill(0.0);
+            for r in 0..r_n {
+                let wk = w[(k * r_n + r) * t_n + t];
+                let hr = &h[r * m_n..(r + 1) * m_n];
+                for m in t..m_n {
+                    tmp[m] += wk * hr[m - t];
+                }
+            }
+            for (l, x) in row.iter_mut().zip(&tmp) {
+                *l += x;
+            }
+        }
+        for l in row.iter_mut() {
+            *l += EPS;
+        }
+    });
+}
+
+/// Templates to unit sum per component (H is not rescaled: a libnmfd quirk kept).
+fn normalise_templates(w: &mut [f64], (k_n, r_n, t_n): (usize, usize, usize)) {
+    for r in 0..r_n {
+        let mut norm = 0.0;
+        for k in 0..k_n {
+            for t in 0..t_n {
+                norm += w[(k * r_n + r) * t_n + t];
+            }
+        }
+        let f = 1.0 / (EPS + norm);
+        for k in 0..k_n {
+            for t in 0..t_n {
+                w[(k * r_n + r) * t_n + t] *= f;
+            }
+        }
+    }
+}
+
 /// Factorise V from the templates `w0` (K × R × T, e.g. [`drum_templates`]) and H = 1.
 pub fn nmfd_from(v: &[f64], bins: usize, size: &NmfdSize, w0: Vec<f64>) -> Nmfd {
     let (k_n, r_n, t_n) = (bins, size.components, size.template_frames);
@@ -137,27 +179,7 @@ pub fn nmfd_from(v: &[f64], bins: usize, size: &NmfdSize, w0: Vec<f64>) -> Nmfd 
     let mut lambda = vec![0.0; k_n * m_n];
     let mut q = vec![0.0; k_n * m_n];
     for _ in 0..size.iterations {
-        // Λ = Σ_τ W_τ·shift_τ(H) + EPS.
-        lambda.par_chunks_mut(m_n).enumerate().for_each(|(k, row)| {
-            row.fill(0.0);
-            let mut tmp = vec![0.0; m_n];
-            for t in 0..t_n {
-                tmp.fill(0.0);
-                for r in 0..r_n {
-                    let wk = w[(k * r_n + r) * t_n + t];
-                    let hr = &h[r * m_n..(r + 1) * m_n];
-                    for m in t..m_n {
-                        tmp[m] += wk * hr[m - t];
-                    }
-                }
-                for (l, x) in row.iter_mut().zip(&tmp) {
-                    *l += x;
-                }
-            }
-            for l in row.iter_mut() {
-                *l += EPS;
-            }
-        });
+        approximate(&mut lambda, &w, &h, (r_n, t_n, m_n));
         let c: f64 = vn
             .par_iter()
             .zip(&lambda)
@@ -205,21 +227,7 @@ pub fn nmfd_from(v: &[f64], bins: usize, size: &NmfdSize, w0: Vec<f64>) -> Nmfd 
         for (hi, mi) in h.iter_mut().zip(&mult_h) {
             *hi *= mi / t_n as f64;
         }
-        // Templates to unit sum per component (H is not rescaled: a libnmfd quirk kept).
-        for r in 0..r_n {
-            let mut norm = 0.0;
-            for k in 0..k_n {
-                for t in 0..t_n {
-                    norm += w[(k * r_n + r) * t_n + t];
-                }
-            }
-            let f = 1.0 / (EPS + norm);
-            for k in 0..k_n {
-                for t in 0..t_n {
-                    w[(k * r_n + r) * t_n + t] *= f;
-                }
-            }
-        }
+        normalise_templates(&mut w, (k_n, r_n, t_n));
     }
     Nmfd {
         activations: h,

@@ -151,6 +151,32 @@ fn check_requests<E>(
     Ok(())
 }
 
+/// Temporal ensembling: token j of this pass (`tokens`, e × D) predicts frame i + j; each is added to that
+/// frame's running weighted sum in `q`, and frame i's weighted mean is returned. With `offset`, tokens are
+/// offsets from `last`, the window's last frame.
+fn ensemble_frame(
+    q: &mut std::collections::VecDeque<(f64, Vec<f64>)>,
+    weights: &[f64],
+    tokens: &[f32],
+    last: &[f32],
+    offset: bool,
+) -> Vec<f32> {
+    let d = last.len();
+    for (j, w) in weights.iter().enumerate() {
+        if q.len() <= j {
+            q.push_back((0.0, vec![0.0; d]));
+        }
+        let (ws, sum) = &mut q[j];
+        *ws += w;
+        let tok = &tokens[j * d..(j + 1) * d];
+        for ((s, &x), &l) in sum.iter_mut().zip(tok).zip(last) {
+            *s += w * (x as f64 + if offset { l as f64 } else { 0.0 });
+        }
+    }
+    let (ws, sum) = q.pop_front().expect("frame i has a prediction");
+    sum.iter().map(|s| (s / ws) as f32).collect()
+}
+
 /// Generate every request. `model(motion, audio, batch)` receives motion [batch, motion_len, D] and audio
 /// [batch, audio_len, 35] (row-major) and returns the first `opts.ensemble` output tokens of each,
 /// [batch, ensemble, D]. `progress(step, total)` is called after each model pass. Returns seed ++
@@ -217,21 +243,8 @@ pub fn autoregress<E>(
             let mut y = if e == 1 {
                 out[n * d..(n + 1) * d].to_vec()
             } else {
-                // Token j predicts frame i + j: add it to that frame's running sum.
-                let q = &mut pending[k];
-                for (j, w) in weights.iter().enumerate() {
-                    if q.len() <= j {
-                        q.push_back((0.0, vec![0.0; d]));
-                    }
-                    let (ws, sum) = &mut q[j];
-                    *ws += w;
-                    let tok = &out[(n * e + j) * d..(n * e + j + 1) * d];
-                    for ((s, &x), &l) in sum.iter_mut().zip(tok).zip(last) {
-                        *s += w * (x as f64 + if opts.offset_output { l as f64 } else { 0.0 });
-                    }
-                }
-                let (ws, sum) = q.pop_front().expect("frame i has a prediction");
-                sum.iter().map(|s| (s / ws) as f32).collect()
+                let tokens = &out[n * e * d..(n + 1) * e * d];
+                ensemble_frame(&mut pending[k], &weights, tokens, last, opts.offset_output)
             };
             if opts.offset_output && e == 1 {
                 for (x, l) in y.iter_mut().zip(last) {

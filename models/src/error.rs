@@ -10,4 +10,7 @@ pub enum Error {
     /// A backend that is unknown, not in this build, or cannot start.
     #[error("{0}")]
     Backend(String),
+    /// A config of another family than the model asked for (e.g. a TSMT run where FACT or QEAN is built).
+    #[error("{0}")]
+    Family(String),
 }

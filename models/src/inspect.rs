@@ -18,6 +18,7 @@ use qean_config::model::{
 };
 use qean_config::run::RunConfig;
 use qean_config::tsmt::{AudioStreams, TsmtConfig};
+use qean_config::ModelSpec;
 
 /// What `inspect` reports.
 #[derive(Clone, Debug)]
@@ -35,91 +36,70 @@ pub struct Inspection {
 /// Loads a config file, instantiates its model lazily and summarises it.
 pub fn inspect(path: &Path) -> Result<Inspection, ConfigError> {
     let config = load_model_config(path)?;
-    if config.arch == Arch::Tsmt {
-        let tsmt = RunConfig::load(path, &[])?.tsmt();
-        let model = Tsmt::new(&tsmt, &Device::flex());
-        let params = model.num_params();
-        return Ok(Inspection {
-            path: path.to_path_buf(),
-            config,
-            params,
-            summary: tsmt_summary(&tsmt, &model, Some(path)),
-        });
-    }
-    if config.arch == Arch::Inbetween {
-        let ib = RunConfig::load(path, &[])?.inbetween();
-        let params = crate::inbetween::Inbetweener::new(&ib, &Device::flex()).num_params();
-        return Ok(Inspection {
-            path: path.to_path_buf(),
-            config,
-            params,
-            summary: inbetween_summary(&ib, params, Some(path)),
-        });
-    }
-    if config.arch == Arch::GenreClf {
-        let g = RunConfig::load(path, &[])?.genre_clf.unwrap_or_default();
-        let params =
-            crate::control::genre_clf::GenreClassifier::new(&g, &Device::flex()).num_params();
-        return Ok(Inspection {
-            path: path.to_path_buf(),
-            config,
-            params,
-            summary: format!(
-                "model: genre classifier (SPEC §13.10) from {}\n  pos72 [{}, 72] → Conv(72 → {w}) → 3 × Conv(k4, s2) → time mean → Linear({w} → 10)\n  closed form (§13.9): {}\n",
-                path.display(),
-                g.window,
-                group_digits(crate::control::genre_clf::genre_clf_params(&g)),
-                w = g.width
-            ),
-        });
-    }
-    if config.arch == Arch::GptGenre {
-        let run = RunConfig::load(path, &[])?;
-        let (g, c) = (run.gpt.unwrap_or_default(), run.genre.unwrap_or_default());
-        let model = crate::control::genre::GenreGpt::new(&g, &c, c.code_dim, &Device::flex());
-        let params = model.genre.num_params() + model.disc.num_params();
-        let summary = format!(
-            "{}{}",
-            gpt_summary(&g, &model.gpt, Some(path)),
-            genre_summary(&g, &c, &model)
-        );
-        return Ok(Inspection {
-            path: path.to_path_buf(),
-            config,
-            params,
-            summary,
-        });
-    }
-    if config.arch == Arch::Gpt {
-        let g = RunConfig::load(path, &[])?.gpt.unwrap_or_default();
-        let model = crate::control::gpt::Gpt::new(&g, &Device::flex());
-        let params = model.num_params();
-        return Ok(Inspection {
-            path: path.to_path_buf(),
-            config,
-            params,
-            summary: gpt_summary(&g, &model, Some(path)),
-        });
-    }
-    if config.arch == Arch::Vqvae {
-        let vq = RunConfig::load(path, &[])?.vq.unwrap_or_default();
-        let model = crate::vqvae::VqVae::new(&vq, &Device::flex());
-        let (enc, dec) = crate::vqvae::network_params(&model);
-        return Ok(Inspection {
-            path: path.to_path_buf(),
-            config,
-            params: enc + dec,
-            summary: vq_summary(&vq, enc, dec, Some(path)),
-        });
-    }
-    let model = DanceModel::new(&config, &Device::flex());
-    let params = model.num_params();
-    let summary = summary(&config, &model, Some(path));
+    // FACT and QEAN need only the [model] table; the other families read the whole run config.
+    let run = match config.arch {
+        Arch::Fact | Arch::Qean => RunConfig {
+            model: config.clone(),
+            ..RunConfig::default()
+        },
+        _ => RunConfig::load(path, &[])?,
+    };
+    let (params, summary) = family_summary(&run, path)?;
     Ok(Inspection {
         path: path.to_path_buf(),
         config,
         params,
         summary,
+    })
+}
+
+/// Parameters and summary of a run config's model (one dispatch on its family).
+fn family_summary(run: &RunConfig, path: &Path) -> Result<(usize, String), ConfigError> {
+    let device = Device::flex();
+    Ok(match run.spec() {
+        ModelSpec::FactQean(m) => {
+            let model = DanceModel::new(m, &device)
+                .map_err(|e| ConfigError::new(path, None, e.to_string()))?;
+            (model.num_params(), summary(m, &model, Some(path)))
+        }
+        ModelSpec::Tsmt(t) => {
+            let model = Tsmt::new(t, &device);
+            (model.num_params(), tsmt_summary(t, &model, Some(path)))
+        }
+        ModelSpec::Inbetween(ib) => {
+            let params = crate::inbetween::Inbetweener::new(ib, &device).num_params();
+            (params, inbetween_summary(ib, params, Some(path)))
+        }
+        ModelSpec::GenreClf(g) => {
+            let params = crate::control::genre_clf::GenreClassifier::new(g, &device).num_params();
+            let summary = format!(
+                "model: genre classifier (SPEC §13.10) from {}\n  pos72 [{}, 72] → Conv(72 → {w}) → 3 × Conv(k4, s2) → time mean → Linear({w} → 10)\n  closed form (§13.9): {}\n",
+                path.display(),
+                g.window,
+                group_digits(crate::control::genre_clf::genre_clf_params(g)),
+                w = g.width
+            );
+            (params, summary)
+        }
+        ModelSpec::GptGenre(g, c) => {
+            let model = crate::control::genre::GenreGpt::new(g, c, c.code_dim, &device);
+            let params = model.genre.num_params() + model.disc.num_params();
+            let summary = format!(
+                "{}{}",
+                gpt_summary(g, &model.gpt, Some(path)),
+                genre_summary(g, c, &model)
+            );
+            (params, summary)
+        }
+        ModelSpec::Gpt(g) => {
+            let model = crate::control::gpt::Gpt::new(g, &device);
+            (model.num_params(), gpt_summary(g, &model, Some(path)))
+        }
+        ModelSpec::Vqvae(vq) => {
+            let model = crate::vqvae::VqVae::new(vq, &device);
+            let (enc, dec) = crate::vqvae::network_params(&model);
+            (enc + dec, vq_summary(vq, enc, dec, Some(path)))
+        }
     })
 }
 
@@ -411,7 +391,7 @@ pub fn genre_summary(
 
 /// What `qean inspect` prints for a motion VQ-VAE config (SPEC §13.2, counts of §13.9).
 pub fn vq_summary(
-    c: &qean_config::vq::VqConfig,
+    c: &qean_config::vqvae::VqConfig,
     enc: usize,
     dec: usize,
     path: Option<&Path>,
@@ -648,7 +628,7 @@ mod tests {
     use qean_config::model::{Arch, QraDk, QraLayers, QraOptions, RopeOptions};
 
     fn count(c: &ModelConfig) -> usize {
-        DanceModel::new(c, &Device::flex()).num_params()
+        DanceModel::new(c, &Device::flex()).unwrap().num_params()
     }
 
     fn qean() -> ModelConfig {

@@ -34,30 +34,23 @@ pub enum DanceModel {
 
 impl DanceModel {
     /// Builds the model a config describes (parameters initialise lazily from the device
-    /// RNG: seed with `device.seed(..)` first for a reproducible init).
-    pub fn new(config: &ModelConfig, device: &Device) -> DanceModel {
-        match config.arch {
-            Arch::Fact => DanceModel::Fact(FactConfig::from(config).init(device)),
-            Arch::Qean => DanceModel::Qean(QeanConfig::from(config).init(device)),
-            Arch::Tsmt => panic!(
-                "DanceModel::new: a TSMT run is built by qean_models::tsmt::Tsmt from its [tsmt] table"
-            ),
-            Arch::Inbetween => panic!(
-                "DanceModel::new: an in-betweener is built by qean_models::inbetween::Inbetweener from its [inbetween] table"
-            ),
-            Arch::GenreClf => panic!(
-                "DanceModel::new: the genre classifier is qean_models::control::genre_clf::GenreClassifier"
-            ),
-            Arch::GptGenre => panic!(
-                "DanceModel::new: a genre-control run is qean_models::control::genre::GenreGpt"
-            ),
-            Arch::Gpt => panic!(
-                "DanceModel::new: a GPT is built by qean_models::control::gpt::Gpt from its [gpt] table"
-            ),
-            Arch::Vqvae => panic!(
-                "DanceModel::new: a VQ-VAE is built by qean_models::vqvae::VqVae from its [vq] table"
-            ),
-        }
+    /// RNG: seed with `device.seed(..)` first for a reproducible init). A config of another family is an
+    /// error that names the module that builds it.
+    pub fn new(config: &ModelConfig, device: &Device) -> Result<DanceModel, Error> {
+        let builder = match config.arch {
+            Arch::Fact => return Ok(DanceModel::Fact(FactConfig::from(config).init(device))),
+            Arch::Qean => return Ok(DanceModel::Qean(QeanConfig::from(config).init(device))),
+            Arch::Tsmt => "qean_models::tsmt::Tsmt from its [tsmt] table",
+            Arch::Inbetween => "qean_models::inbetween::Inbetweener from its [inbetween] table",
+            Arch::GenreClf => "qean_models::control::genre_clf::GenreClassifier",
+            Arch::GptGenre => "qean_models::control::genre::GenreGpt",
+            Arch::Gpt => "qean_models::control::gpt::Gpt from its [gpt] table",
+            Arch::Vqvae => "qean_models::vqvae::VqVae from its [vq] table",
+        };
+        Err(Error::Family(format!(
+            "model.arch = {:?} is not FACT or QEAN: it is built by {builder}",
+            config.arch
+        )))
     }
 
     /// motion [B, Lm, D], audio [B, La, A] → [B, Lm + La, D].
@@ -266,7 +259,7 @@ mod tests {
             },
         ];
         for config in configs {
-            let model = to_f64(DanceModel::new(&config, &device));
+            let model = to_f64(DanceModel::new(&config, &device).unwrap());
             let m = f64_normal([3, config.motion_len, config.motion_dim()], &device);
             let a = f64_normal([3, config.audio_len, config.audio_dim], &device);
             let full = model.forward(m.clone(), a.clone()).narrow(1, 0, 1);
@@ -290,13 +283,13 @@ mod tests {
                 ..tiny(Arch::Qean)
             },
         ] {
-            let model = DanceModel::new(&config, &device);
+            let model = DanceModel::new(&config, &device).unwrap();
             let (m, a) = inputs(&config, &device);
             let y = model.forward(m.clone(), a.clone());
             assert_eq!(y.dims(), [2, 16, 225]);
             let path = model.save_weights(&dir.path().join("w")).unwrap();
             assert_eq!(path.extension().unwrap(), "bpk");
-            let fresh = DanceModel::new(&config, &device);
+            let fresh = DanceModel::new(&config, &device).unwrap();
             assert!(max_abs_diff(fresh.forward(m.clone(), a.clone()), y.clone()) > 1e-6);
             let loaded = fresh.load_weights(&path).unwrap();
             assert_eq!(max_abs_diff(loaded.forward(m, a), y), 0.0);
@@ -308,6 +301,7 @@ mod tests {
         let device = Device::flex();
         let dir = tempfile::tempdir().unwrap();
         let path = DanceModel::new(&tiny(Arch::Fact), &device)
+            .unwrap()
             .save_weights(&dir.path().join("fact.bpk"))
             .unwrap();
         let other = ModelConfig {
@@ -315,15 +309,33 @@ mod tests {
             ..tiny(Arch::Fact)
         };
         let e = DanceModel::new(&other, &device)
+            .unwrap()
             .load_weights(&path)
             .unwrap_err()
             .to_string();
         assert!(e.contains("fact.bpk") && !e.contains('\n'), "{e}");
         let e = DanceModel::new(&tiny(Arch::Fact), &device)
+            .unwrap()
             .load_weights(&dir.path().join("missing.bpk"))
             .unwrap_err()
             .to_string();
         assert!(e.contains("missing.bpk"), "{e}");
+    }
+
+    /// Another family's config is an error naming what builds it, not a panic.
+    #[test]
+    fn another_family_is_an_error() {
+        let config = ModelConfig {
+            arch: Arch::Tsmt,
+            ..tiny(Arch::Fact)
+        };
+        let e = DanceModel::new(&config, &Device::flex())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("not FACT or QEAN") && e.contains("[tsmt]"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -333,12 +345,12 @@ mod tests {
         let device = Device::flex();
         let dir = tempfile::tempdir().unwrap();
         let fact_config = tiny(Arch::Fact);
-        let DanceModel::Fact(fact) = DanceModel::new(&fact_config, &device) else {
+        let DanceModel::Fact(fact) = DanceModel::new(&fact_config, &device).unwrap() else {
             unreachable!()
         };
         let path = dir.path().join("fact.bpk");
         fact.clone().save_file(&path).unwrap();
-        let DanceModel::Qean(qean) = DanceModel::new(&tiny(Arch::Qean), &device) else {
+        let DanceModel::Qean(qean) = DanceModel::new(&tiny(Arch::Qean), &device).unwrap() else {
             unreachable!()
         };
         let qean = qean.try_load_file(&path).unwrap();

@@ -213,7 +213,7 @@ mod tests {
                 ..tiny(Arch::Qean)
             },
         ] {
-            let model = DanceModel::new(&c, &device);
+            let model = DanceModel::new(&c, &device).unwrap();
             let shapes = parameter_shapes(&model);
             let total: usize = shapes
                 .iter()
@@ -244,7 +244,7 @@ mod tests {
     fn hash_changes_with_any_value_and_round_trips_through_safetensors() {
         let device = Device::flex();
         device.seed(3);
-        let model = DanceModel::new(&tiny(Arch::Fact), &device);
+        let model = DanceModel::new(&tiny(Arch::Fact), &device).unwrap();
         let params = named_parameters(&model);
         let h = params_hash(&params);
         assert_eq!(h.len(), 64);

@@ -94,7 +94,7 @@ mod tests {
     fn batched_sampling_equals_one_by_one() {
         let device = Device::flex();
         device.seed(5);
-        let model = DanceModel::new(&tiny(), &device);
+        let model = DanceModel::new(&tiny(), &device).unwrap();
         let opts = SampleOptions {
             frames: 12,
             layout: Layout::L225,

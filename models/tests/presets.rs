@@ -44,7 +44,7 @@ fn mint_fact_output_is_batch_by_360_by_225() {
     let config = inspect(&preset("fact.toml")).unwrap().config;
     let device = Device::flex();
     device.seed(1);
-    let model = DanceModel::new(&config, &device);
+    let model = DanceModel::new(&config, &device).unwrap();
     let motion = Tensor::<3>::zeros([1, 120, 225], &device);
     let audio = Tensor::<3>::zeros([1, 240, 35], &device);
     let out = model.forward(motion, audio);
@@ -93,7 +93,7 @@ fn overfit(name: &str) -> (f64, f64, usize, f64) {
     let config = qean_config::model::load_model_config(&preset(name)).unwrap();
     let device = Device::flex().autodiff();
     device.seed(7);
-    let mut model = DanceModel::new(&config, &device);
+    let mut model = DanceModel::new(&config, &device).unwrap();
     let (motion, audio, target) = batch(&config, 2, &device);
     let eval = |model: &qean_models::DanceModel| -> f64 {
         let plain = Device::flex();

@@ -69,6 +69,7 @@ struct Pass {
 
 fn run(config: &ModelConfig, weights: &Path, device: &Device) -> Pass {
     let model = DanceModel::new(config, device)
+        .unwrap()
         .load_weights(weights)
         .unwrap();
     let (motion, audio, target) = inputs(config, 2, device);
@@ -123,6 +124,7 @@ fn every_tiny_variant_matches_between_flex_and_wgpu() {
         let cpu = Device::flex();
         cpu.seed(11);
         let weights = DanceModel::new(&config, &cpu)
+            .unwrap()
             .save_weights(&dir.path().join(name.replace(".toml", "")))
             .unwrap();
         let start = std::time::Instant::now();

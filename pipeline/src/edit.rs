@@ -2,7 +2,7 @@
 //! and write the edited dance, its report and (optionally) a preview — all checked before anything is
 //! written.
 
-use crate::inbetweener::{rebuild, Context, Segment, Trained};
+use crate::inbetween::{rebuild, Context, Segment, Trained};
 use crate::keyframes::{select_keyframes_of, KeyframesRequest};
 use crate::{Error, Result};
 use qean_keyframes::bezier::{BezierSettings, MeanTheta, ThetaFile};
@@ -391,7 +391,13 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
         ranges,
         frames: motion.frames,
     };
-    let json = serde_json::to_string_pretty(&report).expect("plain data") + "\n";
+    write(req, &written, &report)?;
+    Ok(report)
+}
+
+/// The edited dance, its report beside it and (with `req.render`) its previews.
+fn write(req: &EditRequest, written: &Motion, report: &EditReport) -> Result<()> {
+    let json = serde_json::to_string_pretty(report).expect("plain data") + "\n";
     written.write_pkl(&req.out, Precision::F64)?;
     qean_io::fsutil::atomic_write(&sibling(&req.out, "report.json"), json.as_bytes())?;
     if req.render {
@@ -413,14 +419,14 @@ pub fn edit(req: &EditRequest) -> Result<EditReport> {
             &sibling(&req.out, "gif"),
         )?;
     }
-    Ok(report)
+    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::anchor_windows;
 
-    fn spans(w: &[crate::inbetweener::Segment]) -> Vec<(usize, usize, usize)> {
+    fn spans(w: &[crate::inbetween::Segment]) -> Vec<(usize, usize, usize)> {
         w.iter().map(|s| (s.a, s.b, s.keys.len())).collect()
     }
 

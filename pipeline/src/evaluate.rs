@@ -21,6 +21,7 @@ use qean_models::autoregress::{AudioPad, SampleOptions, SampleRequest};
 use qean_motion::motion::Motion;
 
 use crate::{Error, Result};
+use qean_config::ModelSpec;
 
 /// Sampling settings of checkpoint mode; `None` takes the run's recipe.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -128,6 +129,19 @@ pub struct RunEvaluation {
     pub dir: PathBuf,
 }
 
+/// Checkpoint mode for any family: the VQ-VAE's reconstruction report, the genre classifier's accuracy,
+/// genre control's control test (with the judge `classifier`), or the dance metrics of the rest; returns
+/// the markdown to print.
+pub fn evaluate_family(req: &RunEvalRequest, classifier: Option<&Path>) -> Result<String> {
+    let ck = qean_train::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
+    match (ck.config.spec(), classifier) {
+        (ModelSpec::Vqvae(_), _) => Ok(crate::vqvae::evaluate_vq(req)?.1),
+        (ModelSpec::GenreClf(_), _) => Ok(crate::genre_clf::evaluate_clf(req)?.1),
+        (_, Some(clf)) => Ok(crate::genre_control::control_test(req, clf)?.1),
+        _ => Ok(evaluate_run(req)?.table),
+    }
+}
+
 /// Runs checkpoint mode.
 pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
     let ck = qean_train::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
@@ -177,21 +191,12 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
             .cloned()
             .ok_or_else(|| qean_eval::Error::file(&wav, format!("no audio for music ID '{id}'")))
     };
-    let configs: Vec<EvalConfig> = req
-        .configs
-        .iter()
-        .map(|c| EvalConfig {
-            seed_frames,
-            music_offset: 0,
-            max_frames: req.max_frames,
-            ..c.clone()
-        })
-        .collect();
+    let configs = eval_configs(req, seed_frames);
     let mut reports = configs
         .iter()
         .map(|cfg| evaluate(&generated, &reference, Some(&lookup), cfg))
         .collect::<qean_eval::Result<Vec<_>>>()?;
-    if config.is_tsmt() {
+    if let ModelSpec::Tsmt(_) = config.spec() {
         let more = more_rollouts(req, &ck, &requests, &opts, &generated)?;
         let sets: Vec<&[Sequence]> = std::iter::once(generated.as_slice())
             .chain(more.iter().map(Vec::as_slice))
@@ -236,6 +241,65 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
         report,
         dir: out_dir,
     })
+}
+
+/// The AIST++ metrics of a run's newest checkpoint (checkpoint mode of qean-eval with the chance
+/// baselines, on the run's dataset): the `reference`-mode numbers, comparable with published
+/// tables, and the motion energy (speed and acceleration ratios, frozen share).
+pub fn checkpoint_metrics(run_dir: &Path, frames: usize) -> Result<Vec<(String, f64)>> {
+    let config = qean_config::RunConfig::load(&run_dir.join("config.toml"), &[])?;
+    let data = config
+        .data
+        .dir
+        .ok_or_else(|| Error::Invalid(format!("{}: no data.dir", run_dir.display())))?;
+    let mut req = RunEvalRequest {
+        max_frames: frames,
+        baselines: true,
+        ..RunEvalRequest::new(run_dir, data)
+    };
+    req.configs.truncate(1); // the `reference` mode only
+    let report = evaluate_run(&req)?.report;
+    let r = report
+        .reports
+        .first()
+        .ok_or_else(|| Error::Invalid("evaluation produced no report".into()))?;
+    let mut out = vec![
+        ("fid_k".to_string(), r.fid_k),
+        ("fid_g".to_string(), r.fid_g),
+        ("dist_k".to_string(), r.div_k),
+        ("dist_g".to_string(), r.div_g),
+    ];
+    if let Some(ba) = r.beat_align {
+        out.push(("beat_align".to_string(), ba));
+    }
+    if let Some(e) = &r.motion_energy {
+        out.push(("speed_ratio".to_string(), e.speed_ratio));
+        out.push(("accel_ratio".to_string(), e.accel_ratio));
+        out.push(("freeze_fraction".to_string(), e.freeze_fraction));
+        let min_span = e
+            .spans
+            .iter()
+            .map(|s| s.speed_ratio)
+            .fold(f64::MAX, f64::min);
+        out.push(("min_span_speed_ratio".to_string(), min_span));
+    }
+    if let Some(b) = &report.baselines {
+        out.push(("frozen_fid_k".to_string(), b.frozen.fid_k));
+    }
+    Ok(out)
+}
+
+/// The request's metric configurations, scoring the frames after the seed, up to `req.max_frames`.
+fn eval_configs(req: &RunEvalRequest, seed_frames: usize) -> Vec<EvalConfig> {
+    req.configs
+        .iter()
+        .map(|c| EvalConfig {
+            seed_frames,
+            music_offset: 0,
+            max_frames: req.max_frames,
+            ..c.clone()
+        })
+        .collect()
 }
 
 /// Writes a report as `STEM.json` (pretty, newline-terminated) and `STEM.md` under `R/eval/step-N[-TAG]/`
@@ -382,14 +446,18 @@ fn sample_dances(
         pb.set_length(total as u64);
         pb.set_position(done as u64);
     };
-    let dances = if ck.config.is_tsmt() {
-        sample_tsmt(req, ck, requests, opts, draw_seed, backend, &mut progress)?
-    } else if ck.config.is_gpt() {
-        sample_gpt(req, ck, (requests, genres), opts, draw_seed, &mut progress)?
-    } else {
-        let device = qean_models::backend::device(backend)?;
-        let model = ck.load_model(&device)?;
-        qean_models::sampler::sample(&model, &device, requests, opts, progress)?
+    let dances = match ck.config.spec() {
+        ModelSpec::Tsmt(_) => {
+            sample_tsmt(req, ck, requests, opts, draw_seed, backend, &mut progress)?
+        }
+        ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) => {
+            sample_gpt(req, ck, (requests, genres), opts, draw_seed, &mut progress)?
+        }
+        _ => {
+            let device = qean_models::backend::device(backend)?;
+            let model = ck.load_model(&device)?;
+            qean_models::sampler::sample(&model, &device, requests, opts, progress)?
+        }
     };
     pb.finish_and_clear();
     Ok(dances)

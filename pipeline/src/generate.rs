@@ -2,6 +2,7 @@
 //! (a pickle, a dataset sequence, or a neutral standing pose), the autoregressive sampler
 //! (SPEC §6), and the exports of qean-render (pkl, joints .npy, BVH, previews).
 
+use qean_config::ModelSpec;
 use std::path::{Path, PathBuf};
 
 use qean_aistpp::dataset::Dataset;
@@ -159,14 +160,17 @@ pub fn generate(
     mut progress: impl FnMut(usize, usize),
 ) -> Result<Vec<Generated>> {
     prepare_out(out)?;
-    if ck.config.is_tsmt() {
-        let layout = ck.config.layout();
-        let seed = Motion::from_layout(seed, layout).map_err(Error::msg)?;
-        return crate::tsmt::generate(ck, songs, &seed, opts, out, &mut progress);
-    }
-    if ck.config.is_gpt() {
-        let seed = Motion::from_layout(seed, ck.config.layout()).map_err(Error::msg)?;
-        return crate::gpt::generate(ck, songs, &seed, opts, out, &mut progress);
+    match ck.config.spec() {
+        ModelSpec::Tsmt(_) => {
+            let seed = Motion::from_layout(seed, ck.config.layout()).map_err(Error::msg)?;
+            return crate::tsmt::generate(ck, songs, &seed, opts, out, &mut progress);
+        }
+        ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) => {
+            let seed = Motion::from_layout(seed, ck.config.layout()).map_err(Error::msg)?;
+            return crate::gpt::generate(ck, songs, &seed, opts, out, &mut progress);
+        }
+        // FACT and QEAN below; another family's checkpoint is refused by `load_model`.
+        _ => {}
     }
     qean_config::recipe::check_ensemble(
         ("ensemble", opts.ensemble),

@@ -28,7 +28,10 @@ pub struct TrainedClf {
 impl TrainedClf {
     pub fn load(run: &Path, checkpoint: Option<&str>) -> Result<TrainedClf> {
         let checkpoint = qean_train::checkpoint::resolve_in_run(run, checkpoint)?;
-        if !checkpoint.config.is_genre_clf() {
+        if !matches!(
+            checkpoint.config.spec(),
+            qean_config::ModelSpec::GenreClf(_)
+        ) {
             return Err(Error::Invalid(format!(
                 "{}: not a genre classifier run (model.arch = {:?})",
                 checkpoint.dir.display(),

@@ -82,7 +82,7 @@ pub(crate) fn music_genre(music: &str) -> Option<usize> {
 /// Runs the control test; writes the report beside the run's evaluations.
 pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlReport, String)> {
     let ck = qean_train::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
-    if !ck.config.is_gpt_genre() {
+    if !matches!(ck.config.spec(), qean_config::ModelSpec::GptGenre(..)) {
         return Err(Error::Invalid(format!(
             "{}: --classifier runs the genre control test, which needs a genre-control run (model.arch = \"gpt_genre\"), not {:?}",
             ck.dir.display(),

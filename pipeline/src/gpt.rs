@@ -265,7 +265,7 @@ impl GptRun {
     pub fn load(ck: &Checkpoint) -> Result<GptRun> {
         let vq = FrozenVq::load(gpt_of(&ck.config))?;
         let device = Device::flex();
-        if ck.config.is_gpt_genre() {
+        if let qean_config::ModelSpec::GptGenre(..) = ck.config.spec() {
             let m =
                 qean_train::family::load_checkpoint_model(&GenreFamily::default(), ck, &device)?;
             let z_dim = genre_of_config(&ck.config).z_dim;

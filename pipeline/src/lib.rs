@@ -1,9 +1,12 @@
 //! qean-pipeline: the application layer that glues a trained checkpoint to what a user gets. [`generate`]
 //! turns a checkpoint and songs into dances and their exports; [`evaluate`] is checkpoint mode of the
 //! metrics (sample the test + val split, score it with `qean-eval`, write `R/eval/step-N/report.{json,md}`);
-//! [`curves`] evaluates the checkpoints a curve still lacks. Every entry point takes a typed request.
+//! [`curves`] evaluates the checkpoints a curve still lacks; [`demo`] is `qean demo` (every stage, its tables
+//! and verdicts) and [`bench`] is `qean bench`. Every entry point takes a typed request.
 
+pub mod bench;
 pub mod curves;
+pub mod demo;
 pub mod edit;
 pub mod error;
 pub mod evaluate;
@@ -12,10 +15,10 @@ pub mod genre_clf;
 pub mod genre_control;
 pub mod gpt;
 pub mod inbetween;
-pub mod inbetweener;
+pub mod inbetween_benchmark;
 pub mod keyframes;
 pub mod tsmt;
 pub mod view;
-pub mod vq;
+pub mod vqvae;
 
 pub use error::{Error, Result};

@@ -45,6 +45,10 @@ pub struct SynthArgs {
     /// hear no genre and must guess it from the music (docs/control.md).
     #[arg(long)]
     pub genre_postures: bool,
+    /// Give every genre's procedural music its own riff (a pitched pattern of sixteenths, per genre), so
+    /// that the music says the genre as AIST++'s does (docs/control.md).
+    #[arg(long)]
+    pub genre_music: bool,
 }
 
 pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
@@ -63,6 +67,7 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
         real_music,
         varied_music: !a.plain_music,
         genre_postures: a.genre_postures,
+        genre_music: a.genre_music,
     };
     let report = synth::generate(&a.out, &opts)?;
     let count = |s: &str| report.splits.get(s).map_or(0, |v| v.len());

@@ -2,8 +2,9 @@
 
 use std::path::PathBuf;
 
+use anyhow::Context;
 use clap::Args;
-use qean::demo::{self, Budget, DemoOptions};
+use qean_pipeline::demo::{self, Budget, DemoOptions};
 use qean_train::ProgressMode;
 
 /// Run everything on embedded data, with nothing to download: a synthetic AIST++-format dataset whose
@@ -26,6 +27,10 @@ pub struct DemoArgs {
     /// A smaller, shorter demo (about 1 minute): a smoke test, too short for the dances to be trusted.
     #[arg(long)]
     pub quick: bool,
+    /// Train on data whose genres show: each genre holds its posture and its music plays its own riff
+    /// (`qean synth --genre-postures --genre-music`), for genre control and its judge (docs/control.md).
+    #[arg(long)]
+    pub genre_data: bool,
     /// Plain progress lines instead of bars.
     #[arg(long)]
     pub plain: bool,
@@ -41,13 +46,17 @@ pub fn demo(a: DemoArgs) -> anyhow::Result<i32> {
     });
     let opts = DemoOptions {
         out,
-        budget: Budget::new(a.quick),
+        budget: Budget {
+            genre_data: a.genre_data,
+            ..Budget::new(a.quick)
+        },
         stop: super::train_cmds::stop_flag(),
         progress: if a.plain {
             ProgressMode::Lines
         } else {
             ProgressMode::Auto
         },
+        exe: std::env::current_exe().context("cannot find the qean executable")?,
     };
     let r = demo::run(&opts)?;
     if !r.finished {

@@ -1,5 +1,6 @@
 //! `qean sample`: a dance from any song with a trained checkpoint.
 
+use qean_config::ModelSpec;
 use std::path::PathBuf;
 
 use anyhow::bail;
@@ -132,10 +133,11 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         bail!("--frames must be at least 1");
     }
     let ck = checkpoint::resolve_in_run(&a.run, a.checkpoint.as_deref())?;
-    if !ck.config.is_tsmt()
-        && !ck.config.is_gpt()
-        && (a.temperature.is_some() || a.top_k.is_some() || a.sample_seed != 0)
-    {
+    let draws = matches!(
+        ck.config.spec(),
+        ModelSpec::Tsmt(_) | ModelSpec::Gpt(_) | ModelSpec::GptGenre(..)
+    );
+    if !draws && (a.temperature.is_some() || a.top_k.is_some() || a.sample_seed != 0) {
         tracing::warn!(
             "--temperature, --top-k and --sample-seed are for TSMT runs; this {:?} run is deterministic and ignores them",
             ck.config.model.arch
@@ -321,7 +323,7 @@ fn genre_choice(
     let Some(code) = &a.genre else {
         return Ok(None);
     };
-    if !ck.config.is_gpt_genre() {
+    if !matches!(ck.config.spec(), ModelSpec::GptGenre(..)) {
         bail!(
             "--genre needs a genre-control run (model.arch = \"gpt_genre\", trained with configs/control/genre_tiny.toml); {} is a {:?} run",
             ck.dir.display(),

@@ -209,7 +209,7 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
     };
     let frames = config.eval_frames.unwrap_or(1200);
     let evaluator = |run_dir: &Path| -> qean_io::error::Result<Vec<(String, f64)>> {
-        evaluate_checkpoint(run_dir, frames)
+        qean_pipeline::evaluate::checkpoint_metrics(run_dir, frames)
             .map_err(|e| qean_io::error::Error::msg(format!("{e:#}")))
     };
     let evaluator_ref: Option<&sweep::Evaluator> = if config.evaluate {
@@ -229,52 +229,6 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
     print!("{md}");
     println!("summary: {}", out_dir.join("summary.csv").display());
     Ok(0)
-}
-
-/// The AIST++ metrics of a run's newest checkpoint (checkpoint mode of qean-eval with the chance
-/// baselines, on the run's dataset): the `reference`-mode numbers, comparable with published
-/// tables, and the motion energy (speed and acceleration ratios, frozen share).
-fn evaluate_checkpoint(run_dir: &Path, frames: usize) -> anyhow::Result<Vec<(String, f64)>> {
-    let config = RunConfig::load(&run_dir.join("config.toml"), &[])?;
-    let data = config
-        .data
-        .dir
-        .ok_or_else(|| anyhow!("{}: no data.dir", run_dir.display()))?;
-    let mut req = qean_pipeline::evaluate::RunEvalRequest {
-        max_frames: frames,
-        baselines: true,
-        ..qean_pipeline::evaluate::RunEvalRequest::new(run_dir, data)
-    };
-    req.configs.truncate(1); // the `reference` mode only
-    let report = qean_pipeline::evaluate::evaluate_run(&req)?.report;
-    let r = report
-        .reports
-        .first()
-        .ok_or_else(|| anyhow!("evaluation produced no report"))?;
-    let mut out = vec![
-        ("fid_k".to_string(), r.fid_k),
-        ("fid_g".to_string(), r.fid_g),
-        ("dist_k".to_string(), r.div_k),
-        ("dist_g".to_string(), r.div_g),
-    ];
-    if let Some(ba) = r.beat_align {
-        out.push(("beat_align".to_string(), ba));
-    }
-    if let Some(e) = &r.motion_energy {
-        out.push(("speed_ratio".to_string(), e.speed_ratio));
-        out.push(("accel_ratio".to_string(), e.accel_ratio));
-        out.push(("freeze_fraction".to_string(), e.freeze_fraction));
-        let min_span = e
-            .spans
-            .iter()
-            .map(|s| s.speed_ratio)
-            .fold(f64::MAX, f64::min);
-        out.push(("min_span_speed_ratio".to_string(), min_span));
-    }
-    if let Some(b) = &report.baselines {
-        out.push(("frozen_fid_k".to_string(), b.frozen.fid_k));
-    }
-    Ok(out)
 }
 
 /// Export a checkpoint's weights as one safetensors file: every parameter as f32 under a stable

@@ -381,16 +381,18 @@ pub struct DanceStyle {
     pub posture: bool,
 }
 
-/// Generate `frames` frames of dance at 60 fps following `grid`.
-pub fn generate(grid: &BeatGrid, style: &DanceStyle, frames: usize) -> Motion {
-    use rand::SeedableRng;
-    let mut rng = ChaCha8Rng::seed_from_u64(style.seed);
-    let (vocab, genre_energy) = genre_style(&style.genre);
-    let energy = genre_energy * style.energy;
-    let moves: Vec<Move> = (0..4)
-        .map(|c| library(vocab[(c + style.choreo) % 4]))
-        .collect();
-    let lim = limits();
+/// One dancer's own pose, before the moves: the neutral pose with the genre's posture and small offsets,
+/// a low-frequency wobble of the upper body, a starting yaw and a slow drift.
+struct Dancer {
+    base: [[f64; 3]; NUM_JOINTS],
+    /// (joint, axis, amplitude in degrees, frequency in Hz, phase).
+    wobble: Vec<(usize, usize, f64, f64, f64)>,
+    yaw0: f64,
+    drift: [f64; 2],
+}
+
+/// Draws a [`Dancer`] from `rng` (in a fixed order: the data stay the same for the same seed).
+fn dancer(style: &DanceStyle, rng: &mut ChaCha8Rng) -> Dancer {
     let mut base = neutral_pose();
     let posture = if style.posture {
         genre_posture(&style.genre)
@@ -423,6 +425,30 @@ pub fn generate(grid: &BeatGrid, style: &DanceStyle, frames: usize) -> Motion {
         .collect();
     let yaw0: f64 = rng.random_range(-10.0..10.0);
     let drift = [rng.random_range(-0.1..0.1), rng.random_range(-0.1..0.1)];
+    Dancer {
+        base,
+        wobble,
+        yaw0,
+        drift,
+    }
+}
+
+/// Generate `frames` frames of dance at 60 fps following `grid`.
+pub fn generate(grid: &BeatGrid, style: &DanceStyle, frames: usize) -> Motion {
+    use rand::SeedableRng;
+    let mut rng = ChaCha8Rng::seed_from_u64(style.seed);
+    let (vocab, genre_energy) = genre_style(&style.genre);
+    let energy = genre_energy * style.energy;
+    let moves: Vec<Move> = (0..4)
+        .map(|c| library(vocab[(c + style.choreo) % 4]))
+        .collect();
+    let lim = limits();
+    let Dancer {
+        base,
+        wobble,
+        yaw0,
+        drift,
+    } = dancer(style, &mut rng);
 
     // Standing height: pelvis above the lowest rest joint, plus a sole.
     let rest = rest_joints([0.0; 3]);

@@ -57,6 +57,9 @@ pub struct SynthOptions {
     /// Give every genre its posture (`dance::genre_posture`): genres a classifier can tell apart, at a cost
     /// to models that hear no genre (docs/control.md). Off by default.
     pub genre_postures: bool,
+    /// Give every genre's procedural music its riff ([`music::SIGNATURES`]): music that says its genre, as
+    /// AIST++'s does. Off by default.
+    pub genre_music: bool,
 }
 
 /// A real recording standing in for one music ID's procedural track.
@@ -99,6 +102,7 @@ impl Default for SynthOptions {
             real_music: Vec::new(),
             varied_music: true,
             genre_postures: false,
+            genre_music: false,
         }
     }
 }
@@ -113,6 +117,9 @@ pub struct SynthReport {
     /// Absent (false) in datasets made before the option existed.
     #[serde(default)]
     pub genre_postures: bool,
+    /// Absent (false) in datasets made before the option existed.
+    #[serde(default)]
+    pub genre_music: bool,
     pub splits: BTreeMap<String, Vec<String>>,
     /// Per music ID: tempo, first beat (s) and the phrase chords.
     pub music: BTreeMap<String, MusicInfo>,
@@ -222,6 +229,52 @@ pub fn generate(out: &Path, opts: &SynthOptions) -> Result<SynthReport> {
     qean_io::fsutil::atomic_dir(out, |tmp| write_dataset(tmp, opts, &plan))
 }
 
+/// Music: one track per music ID under `dir/wav/`, a little longer than the longest dance (a real
+/// recording where `opts` gives one for the ID).
+fn write_music(
+    dir: &Path,
+    opts: &SynthOptions,
+    music_ids: &[String],
+) -> Result<BTreeMap<String, Track>> {
+    let music_seconds = opts.seconds + 1.0;
+    let mut music = BTreeMap::new();
+    for id in music_ids {
+        let mut rng = ChaCha8Rng::seed_from_u64(opts.seed ^ fnv(id));
+        let bpm = tempo_prior(id).expect("planned IDs are valid");
+        let genre = &id[1..3];
+        let mut spec = MusicSpec::random(&mut rng, bpm, groove_of(genre), music_seconds);
+        if opts.genre_music {
+            spec.signature = qean_aistpp::names::GENRES.iter().position(|g| *g == genre);
+        }
+        if opts.varied_music {
+            // Its own stream: the plain tracks stay what they were.
+            let mut arr_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ fnv(id) ^ fnv("arrangement"));
+            spec.arrangement = music::Arrangement::random(&mut arr_rng, spec.phrase_chords.len());
+        }
+        let path = dir.join("wav").join(format!("{id}.wav"));
+        let track = match opts.real_music.iter().find(|t| &t.music_id == id) {
+            Some(real) => write_real_track(&path, real, spec, music_seconds, opts.sample_rate)?,
+            None => {
+                let samples = music::render(&spec, opts.sample_rate, &mut rng);
+                qean_io::wav::write_pcm16(&path, &samples, opts.sample_rate)?;
+                Track {
+                    beat_times: spec.beat_times(),
+                    info: MusicInfo {
+                        bpm: spec.bpm,
+                        first_beat: spec.first_beat,
+                        seconds: spec.seconds,
+                        arrangement: opts.varied_music.then(|| spec.arrangement.clone()),
+                        phrase_chords: spec.phrase_chords,
+                        source: None,
+                    },
+                }
+            }
+        };
+        music.insert(id.clone(), track);
+    }
+    Ok(music)
+}
+
 fn write_dataset(
     dir: &Path,
     opts: &SynthOptions,
@@ -250,40 +303,7 @@ fn write_dataset(
         }
     }
 
-    // Music: one track per music ID, a little longer than the longest dance.
-    let music_seconds = opts.seconds + 1.0;
-    let mut music = BTreeMap::new();
-    for id in &music_ids {
-        let mut rng = ChaCha8Rng::seed_from_u64(opts.seed ^ fnv(id));
-        let bpm = tempo_prior(id).expect("planned IDs are valid");
-        let genre = &id[1..3];
-        let mut spec = MusicSpec::random(&mut rng, bpm, groove_of(genre), music_seconds);
-        if opts.varied_music {
-            // Its own stream: the plain tracks stay what they were.
-            let mut arr_rng = ChaCha8Rng::seed_from_u64(opts.seed ^ fnv(id) ^ fnv("arrangement"));
-            spec.arrangement = music::Arrangement::random(&mut arr_rng, spec.phrase_chords.len());
-        }
-        let path = dir.join("wav").join(format!("{id}.wav"));
-        let track = match opts.real_music.iter().find(|t| &t.music_id == id) {
-            Some(real) => write_real_track(&path, real, spec, music_seconds, opts.sample_rate)?,
-            None => {
-                let samples = music::render(&spec, opts.sample_rate, &mut rng);
-                qean_io::wav::write_pcm16(&path, &samples, opts.sample_rate)?;
-                Track {
-                    beat_times: spec.beat_times(),
-                    info: MusicInfo {
-                        bpm: spec.bpm,
-                        first_beat: spec.first_beat,
-                        seconds: spec.seconds,
-                        arrangement: opts.varied_music.then(|| spec.arrangement.clone()),
-                        phrase_chords: spec.phrase_chords,
-                        source: None,
-                    },
-                }
-            }
-        };
-        music.insert(id.clone(), track);
-    }
+    let music = write_music(dir, opts, &music_ids)?;
 
     for name in &all {
         let parsed = qean_aistpp::names::SequenceName::parse(name)?;
@@ -322,6 +342,7 @@ fn write_dataset(
         sample_rate: opts.sample_rate,
         varied_music: opts.varied_music,
         genre_postures: opts.genre_postures,
+        genre_music: opts.genre_music,
         splits: plan
             .iter()
             .map(|(s, n)| (s.name().to_string(), n.clone()))
@@ -495,6 +516,7 @@ mod tests {
             real_music: Vec::new(),
             varied_music: true,
             genre_postures: false,
+            genre_music: false,
         };
         let a = root.path().join("a");
         let b = root.path().join("b");

@@ -43,7 +43,26 @@ pub struct MusicSpec {
     pub seconds: f64,
     /// Loudness, mix and drum sections (plain: every phrase the same, peak at 0.8).
     pub arrangement: Arrangement,
+    /// The genre's riff ([`SIGNATURES`], by genre index in AIST++ order), or none.
+    pub signature: Option<usize>,
 }
+
+/// Each genre's riff, as real AIST++ genres have their own music (break beats, house, funk for locking, …):
+/// the sixteenths hit within every two beats (bit i = sixteenth i of 8) and the riff's pitch class. The masks
+/// differ under every shift by whole beats, so a window of one to two beats tells the genres apart; they
+/// survive per-track standardisation of the features (they are rhythm and pitch, not level).
+pub const SIGNATURES: [(u8, i32); 10] = [
+    (0b0100_1001, 0),  // BR: sixteenths 0, 3, 6
+    (0b0100_0100, 2),  // PO: 2, 6
+    (0b0011_0011, 4),  // LO: 0, 1, 4, 5
+    (0b1010_1010, 5),  // MH: 1, 3, 5, 7
+    (0b0010_0001, 7),  // LH: 0, 5
+    (0b1100_1100, 9),  // HO: 2, 3, 6, 7
+    (0b0101_0101, 11), // WA: 0, 2, 4, 6
+    (0b0000_0111, 1),  // KR: 0, 1, 2
+    (0b1000_1000, 3),  // JS: 3, 7
+    (0b1101_0001, 6),  // JB: 0, 4, 6, 7
+];
 
 /// How a track's loudness and mix vary; the dances ignore all of it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -131,6 +150,7 @@ impl MusicSpec {
             groove,
             seconds,
             arrangement: Arrangement::plain(),
+            signature: None,
         }
     }
 
@@ -163,7 +183,6 @@ pub fn render(spec: &MusicSpec, sample_rate: u32, rng: &mut ChaCha8Rng) -> Vec<f
     let n = (spec.seconds * sr).round() as usize;
     let mut out = vec![0.0; n];
     let period = spec.beat_period();
-    let sixteenth = period / 4.0;
     let total_beats = (spec.seconds / period).ceil() as usize + 1;
     let arr = &spec.arrangement;
 
@@ -173,33 +192,9 @@ pub fn render(spec: &MusicSpec, sample_rate: u32, rng: &mut ChaCha8Rng) -> Vec<f
         let chord = CHORDS[spec.chord_at_beat(beat)];
         let root = spec.key_root as f64 + chord[0] as f64;
 
-        // Drums, on a 16th grid within the beat.
-        let (kick16, snare, hats): (&[usize], bool, &[f64]) = match spec.groove {
-            Groove::FourOnFloor => (&[0], in_bar % 2 == 1, &[0.5]),
-            Groove::Breakbeat => (
-                if in_bar == 2 { &[0, 2] } else { &[0] },
-                in_bar % 2 == 1,
-                &[0.0, 0.5],
-            ),
-            Groove::Swing => (
-                if in_bar.is_multiple_of(2) { &[0] } else { &[] },
-                in_bar % 2 == 1,
-                &[0.0, 2.0 / 3.0],
-            ),
-        };
-        let drums = arr.phrase_drum(beat);
-        for &k in kick16 {
-            add_kick(&mut out, sr, t_beat + k as f64 * sixteenth, 0.9 * drums);
-        }
-        if !kick16.contains(&0) {
-            // A soft kick on every beat keeps the pulse clear for beat tracking.
-            add_kick(&mut out, sr, t_beat, 0.5 * drums);
-        }
-        if snare {
-            add_snare(&mut out, sr, t_beat, 0.5 * drums, rng);
-        }
-        for &h in hats {
-            add_hat(&mut out, sr, t_beat + h * period, 0.18 * drums, rng);
+        add_drums(&mut out, sr, spec, beat, rng);
+        if let Some(g) = spec.signature {
+            add_signature(&mut out, sr, spec, beat, g);
         }
         // Bass: root on the beat, fifth on the off-beat.
         add_tone(
@@ -246,6 +241,63 @@ pub fn render(spec: &MusicSpec, sample_rate: u32, rng: &mut ChaCha8Rng) -> Vec<f
             }
         }
     }
+    master(&mut out, arr, rng);
+    out
+}
+
+/// The drums of beat `beat`, on a 16th grid within the beat, after the groove.
+fn add_drums(out: &mut [f64], sr: f64, spec: &MusicSpec, beat: usize, rng: &mut ChaCha8Rng) {
+    let period = spec.beat_period();
+    let sixteenth = period / 4.0;
+    let t_beat = spec.first_beat + beat as f64 * period;
+    let in_bar = beat % BEATS_PER_BAR;
+    let (kick16, snare, hats): (&[usize], bool, &[f64]) = match spec.groove {
+        Groove::FourOnFloor => (&[0], in_bar % 2 == 1, &[0.5]),
+        Groove::Breakbeat => (
+            if in_bar == 2 { &[0, 2] } else { &[0] },
+            in_bar % 2 == 1,
+            &[0.0, 0.5],
+        ),
+        Groove::Swing => (
+            if in_bar.is_multiple_of(2) { &[0] } else { &[] },
+            in_bar % 2 == 1,
+            &[0.0, 2.0 / 3.0],
+        ),
+    };
+    let drums = spec.arrangement.phrase_drum(beat);
+    for &k in kick16 {
+        add_kick(out, sr, t_beat + k as f64 * sixteenth, 0.9 * drums);
+    }
+    if !kick16.contains(&0) {
+        // A soft kick on every beat keeps the pulse clear for beat tracking.
+        add_kick(out, sr, t_beat, 0.5 * drums);
+    }
+    if snare {
+        add_snare(out, sr, t_beat, 0.5 * drums, rng);
+    }
+    for &h in hats {
+        add_hat(out, sr, t_beat + h * period, 0.18 * drums, rng);
+    }
+}
+
+/// Genre `g`'s riff ([`SIGNATURES`]) over beat `beat`: short plucks two octaves above the key's register,
+/// the same level in every phrase (drum breaks included).
+fn add_signature(out: &mut [f64], sr: f64, spec: &MusicSpec, beat: usize, g: usize) {
+    let (mask, pitch) = SIGNATURES[g];
+    let period = spec.beat_period();
+    let t_beat = spec.first_beat + beat as f64 * period;
+    let f = midi_hz(84.0 + pitch as f64);
+    for k in 0..4 {
+        if mask >> ((beat % 2) * 4 + k) & 1 == 1 {
+            let t = t_beat + k as f64 * period / 4.0;
+            add_tone(out, sr, t, period / 5.0, f, 0.12, 0.002, 0.04);
+        }
+    }
+}
+
+/// The mix's last touches: the arrangement's noise floor, the peak at 0.8 and its gain ramp (dB).
+fn master(out: &mut [f64], arr: &Arrangement, rng: &mut ChaCha8Rng) {
+    let n = out.len();
     if arr.noise > 0.0 {
         out.iter_mut()
             .for_each(|x| *x += arr.noise * rng.random_range(-1.0..1.0));
@@ -263,7 +315,6 @@ pub fn render(spec: &MusicSpec, sample_rate: u32, rng: &mut ChaCha8Rng) -> Vec<f
             *x *= 10f64.powf(db / 20.0);
         }
     }
-    out
 }
 
 fn span(out_len: usize, sr: f64, t0: f64, dur: f64) -> (usize, usize) {
@@ -330,6 +381,35 @@ fn add_tone(
 mod tests {
     use super::*;
     use rand::SeedableRng;
+
+    /// No two genres' riffs are the same, nor the same one beat later (halves swapped), nor share a pitch.
+    #[test]
+    fn signatures_tell_genres_apart() {
+        let swap = |m: u8| m.rotate_left(4);
+        for (i, &(a, pa)) in SIGNATURES.iter().enumerate() {
+            assert!(a != 0, "genre {i} has an empty riff");
+            for (j, &(b, pb)) in SIGNATURES.iter().enumerate().skip(i + 1) {
+                assert!(a != b && a != swap(b), "genres {i} and {j} share a riff");
+                assert_ne!(pa, pb, "genres {i} and {j} share a pitch");
+            }
+        }
+    }
+
+    /// The riff is added on top of the same track.
+    #[test]
+    fn signature_adds_a_riff() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let plain = MusicSpec::random(&mut rng, 120.0, Groove::Breakbeat, 4.0);
+        let riff = MusicSpec {
+            signature: Some(7),
+            ..plain.clone()
+        };
+        let a = render(&plain, 8000, &mut ChaCha8Rng::seed_from_u64(1));
+        let b = render(&riff, 8000, &mut ChaCha8Rng::seed_from_u64(1));
+        assert_eq!(a.len(), b.len());
+        let diff: f64 = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).sum::<f64>() / a.len() as f64;
+        assert!(diff > 1e-3, "the riff changes the track ({diff})");
+    }
 
     #[test]
     fn render_is_deterministic_and_bounded() {

@@ -17,6 +17,7 @@ fn load_split_of_a_synthetic_dataset() {
         real_music: Vec::new(),
         varied_music: false,
         genre_postures: false,
+        genre_music: false,
     };
     qean_synth::generate(&dir, &opts).unwrap();
     let ds = Dataset::open(&dir).unwrap();

@@ -24,6 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::run_dir;
 use qean_config::run::RunConfig;
+use qean_config::ModelSpec;
 
 pub const MODEL_FILE: &str = "model.bpk";
 pub const OPTIMIZER_FILE: &str = "optimizer.bpk";
@@ -109,40 +110,30 @@ impl Checkpoint {
         })
     }
 
-    /// The FACT or QEAN model with this checkpoint's weights, on `device` (a TSMT checkpoint is an
-    /// error: load it through `qean_train::tsmt::TsmtFamily`).
+    /// The FACT or QEAN model with this checkpoint's weights, on `device` (another family's checkpoint is
+    /// an error that says what takes it).
     pub fn load_model(&self, device: &Device) -> Result<DanceModel> {
-        if self.config.is_tsmt() {
-            return Err(Error::at(
-                &self.dir,
-                "a TSMT checkpoint, not FACT or QEAN: this command does not take TSMT runs",
-            ));
-        }
-        if self.config.is_inbetween() {
-            return Err(Error::at(
-                &self.dir,
-                "an in-betweener checkpoint, not FACT or QEAN: it does not generate dances from music",
-            ));
-        }
-        if self.config.is_genre_clf() {
-            return Err(Error::at(
-                &self.dir,
-                "a genre classifier checkpoint, not FACT or QEAN: `qean eval --run` scores it",
-            ));
-        }
-        if self.config.is_gpt() {
-            return Err(Error::at(
-                &self.dir,
-                "a music-to-dance GPT checkpoint, not FACT or QEAN: `qean sample` and `qean eval` take it",
-            ));
-        }
-        if self.config.is_vqvae() {
-            return Err(Error::at(
-                &self.dir,
-                "a motion VQ-VAE checkpoint, not FACT or QEAN: it encodes and decodes dances, it does not generate them",
-            ));
-        }
-        crate::family::load_checkpoint_model(&crate::fact_qean::FactQean, self, device)
+        let other = match self.config.spec() {
+            ModelSpec::FactQean(_) => {
+                return crate::family::load_checkpoint_model(&crate::fact_qean::FactQean, self, device)
+            }
+            ModelSpec::Tsmt(_) => {
+                "a TSMT checkpoint, not FACT or QEAN: this command does not take TSMT runs"
+            }
+            ModelSpec::Inbetween(_) => {
+                "an in-betweener checkpoint, not FACT or QEAN: it does not generate dances from music"
+            }
+            ModelSpec::GenreClf(_) => {
+                "a genre classifier checkpoint, not FACT or QEAN: `qean eval --run` scores it"
+            }
+            ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) => {
+                "a music-to-dance GPT checkpoint, not FACT or QEAN: `qean sample` and `qean eval` take it"
+            }
+            ModelSpec::Vqvae(_) => {
+                "a motion VQ-VAE checkpoint, not FACT or QEAN: it encodes and decodes dances, it does not generate them"
+            }
+        };
+        Err(Error::at(&self.dir, other))
     }
 
     /// Every parameter of the checkpoint's model, whatever its family (inspection, export).
@@ -150,79 +141,41 @@ impl Checkpoint {
         &self,
         device: &Device,
     ) -> Result<Vec<qean_models::params::NamedParam>> {
-        if self.config.is_tsmt() {
-            let model = crate::family::load_checkpoint_model(
-                &crate::tsmt::TsmtFamily::default(),
-                self,
-                device,
-            )?;
-            return Ok(qean_models::params::named_parameters(&model));
-        }
-        if self.config.is_inbetween() {
-            let model = crate::family::load_checkpoint_model(
-                &crate::inbetween::InbetweenFamily,
-                self,
-                device,
-            )?;
-            return Ok(qean_models::params::named_parameters(&model));
-        }
-        if self.config.is_genre_clf() {
-            let model = crate::family::load_checkpoint_model(
-                &crate::genre_clf::GenreClfFamily,
-                self,
-                device,
-            )?;
-            return Ok(qean_models::params::named_parameters(&model));
-        }
-        if self.config.is_gpt_genre() {
-            let model = crate::family::load_checkpoint_model(
-                &crate::genre::GenreFamily::default(),
-                self,
-                device,
-            )?;
-            return Ok(qean_models::params::named_parameters(&model));
-        }
-        if self.config.is_gpt() {
-            let model = crate::family::load_checkpoint_model(
-                &crate::gpt::GptFamily::default(),
-                self,
-                device,
-            )?;
-            return Ok(qean_models::params::named_parameters(&model));
-        }
-        if self.config.is_vqvae() {
-            let model = crate::family::load_checkpoint_model(
-                &crate::vqvae::VqFamily::default(),
-                self,
-                device,
-            )?;
-            return Ok(qean_models::params::named_parameters(&model));
-        }
-        Ok(qean_models::params::named_parameters(
-            &self.load_model(device)?,
-        ))
+        use crate::family::load_checkpoint_model as load;
+        use qean_models::params::named_parameters as named;
+        Ok(match self.config.spec() {
+            ModelSpec::FactQean(_) => named(&load(&crate::fact_qean::FactQean, self, device)?),
+            ModelSpec::Tsmt(_) => named(&load(&crate::tsmt::TsmtFamily::default(), self, device)?),
+            ModelSpec::Inbetween(_) => {
+                named(&load(&crate::inbetween::InbetweenFamily, self, device)?)
+            }
+            ModelSpec::GenreClf(_) => {
+                named(&load(&crate::genre_clf::GenreClfFamily, self, device)?)
+            }
+            ModelSpec::GptGenre(..) => {
+                named(&load(&crate::genre::GenreFamily::default(), self, device)?)
+            }
+            ModelSpec::Gpt(_) => named(&load(&crate::gpt::GptFamily::default(), self, device)?),
+            ModelSpec::Vqvae(_) => named(&load(&crate::vqvae::VqFamily::default(), self, device)?),
+        })
     }
 
-    /// The architecture tables as TOML (`[model]`, or `[tsmt]` for TSMT runs).
+    /// The architecture tables as TOML: the family's own (`[model]` for FACT and QEAN).
     pub fn architecture_toml(&self) -> String {
-        if self.config.is_gpt_genre() {
-            let part =
-                |t: std::result::Result<String, toml::ser::Error>| t.expect("configs serialise");
-            return format!(
+        let part = |t: std::result::Result<String, toml::ser::Error>| t.expect("configs serialise");
+        match self.config.spec() {
+            ModelSpec::GptGenre(g, c) => format!(
                 "[gpt]\n{}\n[genre]\n{}",
-                part(toml::to_string(&self.config.gpt)),
-                part(toml::to_string(&self.config.genre))
-            );
+                part(toml::to_string(g)),
+                part(toml::to_string(c))
+            ),
+            ModelSpec::FactQean(m) => part(toml::to_string(m)),
+            ModelSpec::Tsmt(t) => part(toml::to_string(t)),
+            ModelSpec::Inbetween(i) => part(toml::to_string(i)),
+            ModelSpec::Vqvae(v) => part(toml::to_string(v)),
+            ModelSpec::Gpt(g) => part(toml::to_string(g)),
+            ModelSpec::GenreClf(g) => part(toml::to_string(g)),
         }
-        match (&self.config.tsmt, &self.config.inbetween) {
-            (Some(t), _) if self.config.is_tsmt() => toml::to_string(t),
-            (_, Some(i)) if self.config.is_inbetween() => toml::to_string(i),
-            _ if self.config.is_vqvae() => toml::to_string(&self.config.vq),
-            _ if self.config.is_gpt() => toml::to_string(&self.config.gpt),
-            _ if self.config.is_genre_clf() => toml::to_string(&self.config.genre_clf),
-            _ => toml::to_string(&self.config.model),
-        }
-        .expect("configs serialise")
     }
 
     /// Refuses to continue these weights as another model: the error names the checkpoint and the
@@ -339,7 +292,7 @@ impl Checkpoint {
             )?;
         }
         if let (Some(a), Some(b)) = (&self.config.vq, &config.vq) {
-            let shape = |c: &qean_config::vq::VqConfig| {
+            let shape = |c: &qean_config::vqvae::VqConfig| {
                 (
                     c.width,
                     c.code_dim,

@@ -118,8 +118,8 @@ fn layer_pattern(name: &str) -> (String, Option<usize>) {
 
 /// The markdown table of every tensor of a model config, repeated layers folded to
 /// `layers.{i}` with the index range.
-pub fn weights_table(config: &ModelConfig) -> String {
-    let model = DanceModel::new(config, &Device::flex());
+pub fn weights_table(config: &ModelConfig) -> Result<String> {
+    let model = DanceModel::new(config, &Device::flex()).map_err(|e| Error::msg(e.to_string()))?;
     let shapes = parameter_shapes(&model);
     // first position → (pattern, shape, layer range)
     type Row = (String, Vec<usize>, Option<(usize, usize)>);
@@ -153,7 +153,7 @@ pub fn weights_table(config: &ModelConfig) -> String {
             role(pattern)
         ));
     }
-    s
+    Ok(s)
 }
 
 /// A shape as the table writes it: `[225, 800]`.
@@ -218,12 +218,14 @@ rewrites it); a test checks that it lists every tensor of each preset with its s
         let path = configs.join(file);
         let config =
             qean_config::model::load_model_config(&path).map_err(|e| Error::msg(e.to_string()))?;
-        let count = DanceModel::new(&config, &Device::flex()).num_params();
+        let count = DanceModel::new(&config, &Device::flex())
+            .map_err(|e| Error::at(&path, e.to_string()))?
+            .num_params();
         s.push_str(&format!(
             "\n## `configs/{file}`: {what}, {} parameters\n\n",
             qean_models::inspect::group_digits(count)
         ));
-        s.push_str(&weights_table(&config));
+        s.push_str(&weights_table(&config)?);
     }
     Ok(s)
 }

@@ -7,7 +7,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::windows::{Batch, SequenceSet, WindowSpec, AUDIO_DIM};
 use qean_config::recipe::Predict;
-use qean_io::error::Result;
+use qean_io::error::{Error, Result};
 use qean_models::loss::{difference_loss, motion_loss};
 use qean_models::DanceModel;
 
@@ -126,8 +126,8 @@ impl Family for FactQean {
     type Model = DanceModel;
     type Inputs = (Tensor<3>, Tensor<3>, Tensor<3>);
 
-    fn init(&self, config: &RunConfig, device: &Device) -> DanceModel {
-        DanceModel::new(&config.model, device)
+    fn init(&self, config: &RunConfig, device: &Device) -> Result<DanceModel> {
+        DanceModel::new(&config.model, device).map_err(|e| Error::msg(e.to_string()))
     }
 
     /// The music statistics of `audio_norm = "standardize"`: a resumed run keeps those its model was

@@ -73,7 +73,7 @@ pub trait Family {
     type Inputs;
 
     /// A fresh model on `device` (the trainer seeds the device first).
-    fn init(&self, config: &RunConfig, device: &Device) -> Self::Model;
+    fn init(&self, config: &RunConfig, device: &Device) -> Result<Self::Model>;
 
     /// Before the data loads: fill config values the family derives from the training split, taking
     /// them from `resume` when continuing (a resumed run never recomputes them), and restore the
@@ -225,6 +225,6 @@ pub fn load_checkpoint_model<F: Family>(
     checkpoint: &Checkpoint,
     device: &Device,
 ) -> Result<F::Model> {
-    let model = family.init(&checkpoint.config, device);
+    let model = family.init(&checkpoint.config, device)?;
     load_weights(model, &checkpoint.dir.join(crate::checkpoint::MODEL_FILE))
 }

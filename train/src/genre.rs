@@ -27,10 +27,7 @@ use crate::gpt::{cross_entropy, gpt_of, tensors, GptFamily, GptInputs};
 
 /// The `[genre]` table of a genre-control run.
 pub fn genre_of_config(config: &RunConfig) -> &GenreConfig {
-    config
-        .genre
-        .as_ref()
-        .expect("a genre-control run config has a [genre] table (RunConfig::from_table fills it)")
+    config.genre_table()
 }
 
 /// `n` standard normal values from a seeded ChaCha stream (Box–Muller, row-major): the noise z.
@@ -59,8 +56,8 @@ impl FrozenGpt {
         })?;
         let checkpoint = crate::checkpoint::resolve(run)
             .map_err(|e| Error::msg(format!("genre.gpt_run: {e}")))?;
-        let theirs = match (&checkpoint.config.gpt, checkpoint.config.is_gpt_genre()) {
-            (Some(t), false) if checkpoint.config.is_gpt() => t,
+        let theirs = match checkpoint.config.spec() {
+            qean_config::ModelSpec::Gpt(t) => t,
             _ => {
                 return Err(Error::at(
                     &checkpoint.dir,
@@ -201,7 +198,7 @@ impl Family for GenreFamily {
     type Inputs = GenreInputs;
 
     /// The genre module and D fresh, the GPT from `genre.gpt_run` (frozen: no gradients).
-    fn init(&self, config: &RunConfig, device: &Device) -> GenreGpt {
+    fn init(&self, config: &RunConfig, device: &Device) -> Result<GenreGpt> {
         let mut model = GenreGpt::new(
             gpt_of(config),
             genre_of_config(config),
@@ -209,12 +206,9 @@ impl Family for GenreFamily {
             device,
         );
         if let Some(frozen) = &self.gpt {
-            model.gpt = frozen
-                .load(device)
-                .expect("prepare loaded this GPT checkpoint once already")
-                .no_grad();
+            model.gpt = frozen.load(device)?.no_grad();
         }
-        model
+        Ok(model)
     }
 
     /// Resolves the frozen GPT (its `[gpt]` sizes must equal this config's), takes its VQ-VAE run, loads

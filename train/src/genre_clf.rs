@@ -22,10 +22,7 @@ pub struct GenreClfFamily;
 
 /// The `[genre_clf]` table of a classifier run.
 pub fn clf_of(config: &RunConfig) -> &GenreClfConfig {
-    config
-        .genre_clf
-        .as_ref()
-        .expect("a genre classifier run config has a [genre_clf] table")
+    config.genre_clf_table()
 }
 
 /// The genre index of an AIST++ name (`gBR_…` → 0), if it has one.
@@ -73,8 +70,8 @@ impl Family for GenreClfFamily {
     type Model = GenreClassifier;
     type Inputs = (Tensor<3>, Vec<usize>);
 
-    fn init(&self, config: &RunConfig, device: &Device) -> GenreClassifier {
-        GenreClassifier::new(clf_of(config), device)
+    fn init(&self, config: &RunConfig, device: &Device) -> Result<GenreClassifier> {
+        Ok(GenreClassifier::new(clf_of(config), device))
     }
 
     /// Windows of pos72 rows; sequences without a genre code are left out.

@@ -42,7 +42,7 @@ impl FrozenVq {
         })?;
         let checkpoint = crate::checkpoint::resolve(run)
             .map_err(|e| Error::msg(format!("gpt.vqvae_run: {e}")))?;
-        if !checkpoint.config.is_vqvae() {
+        if !matches!(checkpoint.config.spec(), qean_config::ModelSpec::Vqvae(_)) {
             return Err(Error::at(
                 &checkpoint.dir,
                 format!(
@@ -279,10 +279,7 @@ pub struct GptInputs {
 
 /// The `[gpt]` table of a GPT run.
 pub fn gpt_of(config: &RunConfig) -> &GptConfig {
-    config
-        .gpt
-        .as_ref()
-        .expect("a GPT run config has a [gpt] table (RunConfig::from_table fills it)")
+    config.gpt_table()
 }
 
 /// Windows of n input tokens (rows u..u+n−1 of [Start, c_0, …]), targets one row later, music rows
@@ -348,8 +345,8 @@ impl Family for GptFamily {
     type Model = Gpt;
     type Inputs = GptBatch;
 
-    fn init(&self, config: &RunConfig, device: &Device) -> Gpt {
-        Gpt::new(gpt_of(config), device)
+    fn init(&self, config: &RunConfig, device: &Device) -> Result<Gpt> {
+        Ok(Gpt::new(gpt_of(config), device))
     }
 
     /// Loads the frozen VQ-VAE; a resumed run must find the same one (its weights hash).

@@ -95,9 +95,7 @@ fn with_drums(mut set: SequenceSet, dataset: &Dataset, c: &InbetweenConfig) -> R
 pub struct InbetweenFamily;
 
 fn config_of(config: &RunConfig) -> &InbetweenConfig {
-    config.inbetween.as_ref().expect(
-        "an in-betweener run config has an [inbetween] table (RunConfig::from_table fills it)",
-    )
+    config.inbetween_table()
 }
 
 /// The window of one measure, padded to `max_len` frames.
@@ -418,8 +416,8 @@ impl Family for InbetweenFamily {
         c.validate().map_err(Error::msg)
     }
 
-    fn init(&self, config: &RunConfig, device: &Device) -> Inbetweener {
-        Inbetweener::new(config_of(config), device)
+    fn init(&self, config: &RunConfig, device: &Device) -> Result<Inbetweener> {
+        Ok(Inbetweener::new(config_of(config), device))
     }
 
     fn draw_spec(&self, config: &RunConfig) -> WindowSpec {

@@ -302,7 +302,7 @@ mod tests {
         let c = config(RecipeConfig::default());
         assert_eq!(draw_spec(&c), c.window_spec());
         let device = Device::flex();
-        let model = DanceModel::new(&c.model, &device);
+        let model = DanceModel::new(&c.model, &device).unwrap();
         let d = drawn(&c, 3);
         let (out, applied) = apply(&d, &c, &model, &device, 7, 0);
         assert_eq!(out, d);
@@ -325,7 +325,7 @@ mod tests {
                 (spec.motion_len, spec.audio_len, spec.target_shift),
                 (8, 10, 8)
             );
-            let model = DanceModel::new(&c.model, &device);
+            let model = DanceModel::new(&c.model, &device).unwrap();
             let d = drawn(&c, 2);
             let (out, applied) = apply(&d, &c, &model, &device, 7, 5);
             assert_eq!(applied.rolled_out, 2);
@@ -374,7 +374,7 @@ mod tests {
             feedback_project,
             ..RecipeConfig::default()
         });
-        let model = DanceModel::new(&c.model, &device);
+        let model = DanceModel::new(&c.model, &device).unwrap();
         let d = drawn(&c, 1);
         let (out, _) = apply(&d, &c, &model, &device, 1, 0);
         let dim = d.dim;
@@ -410,7 +410,7 @@ mod tests {
             ..RecipeConfig::default()
         });
         let device = Device::flex();
-        let model = DanceModel::new(&c.model, &device);
+        let model = DanceModel::new(&c.model, &device).unwrap();
         let d = drawn(&c, 8);
         let (out, _) = apply(&d, &c, &model, &device, 3, 0);
         let dim = d.dim;
@@ -436,7 +436,7 @@ mod tests {
             ..RecipeConfig::default()
         });
         let device = Device::flex();
-        let model = DanceModel::new(&c.model, &device);
+        let model = DanceModel::new(&c.model, &device).unwrap();
         let d = drawn(&c, 8);
         let (out, _) = apply(&d, &c, &model, &device, 5, 0);
         assert_eq!(out.motion, d.motion);
@@ -469,7 +469,7 @@ mod tests {
             ..RecipeConfig::default()
         });
         let device = Device::flex();
-        let model = DanceModel::new(&c.model, &device);
+        let model = DanceModel::new(&c.model, &device).unwrap();
         let d = drawn(&c, 16);
         let (out, _) = apply(&d, &c, &model, &device, 9, 0);
         assert_eq!(out.motion, d.motion);

@@ -26,6 +26,7 @@ use crate::progress::Reporter;
 pub use crate::resume::Start;
 use crate::run_dir::{self, RunLock};
 use qean_config::run::RunConfig;
+use qean_config::ModelSpec;
 
 /// Options of one `train` call.
 #[derive(Debug, Clone)]
@@ -382,27 +383,21 @@ impl<F: Family> Session<'_, F> {
     }
 }
 
-/// Trains (or continues) the FACT, QEAN or TSMT run in `opts.run_dir` with `config`.
+/// Trains (or continues) the run in `opts.run_dir` with `config`, whatever its family.
 pub fn train(config: RunConfig, opts: &TrainOptions) -> Result<TrainOutcome> {
-    if config.is_tsmt() {
-        return train_family(&mut crate::tsmt::TsmtFamily::default(), config, opts);
+    match config.spec() {
+        ModelSpec::FactQean(_) => train_family(&mut FactQean, config, opts),
+        ModelSpec::Tsmt(_) => train_family(&mut crate::tsmt::TsmtFamily::default(), config, opts),
+        ModelSpec::Inbetween(_) => {
+            train_family(&mut crate::inbetween::InbetweenFamily, config, opts)
+        }
+        ModelSpec::GenreClf(_) => train_family(&mut crate::genre_clf::GenreClfFamily, config, opts),
+        ModelSpec::GptGenre(..) => {
+            train_family(&mut crate::genre::GenreFamily::default(), config, opts)
+        }
+        ModelSpec::Gpt(_) => train_family(&mut crate::gpt::GptFamily::default(), config, opts),
+        ModelSpec::Vqvae(_) => train_family(&mut crate::vqvae::VqFamily::default(), config, opts),
     }
-    if config.is_inbetween() {
-        return train_family(&mut crate::inbetween::InbetweenFamily, config, opts);
-    }
-    if config.is_genre_clf() {
-        return train_family(&mut crate::genre_clf::GenreClfFamily, config, opts);
-    }
-    if config.is_gpt_genre() {
-        return train_family(&mut crate::genre::GenreFamily::default(), config, opts);
-    }
-    if config.is_gpt() {
-        return train_family(&mut crate::gpt::GptFamily::default(), config, opts);
-    }
-    if config.is_vqvae() {
-        return train_family(&mut crate::vqvae::VqFamily::default(), config, opts);
-    }
-    train_family(&mut FactQean, config, opts)
 }
 
 /// Trains (or continues) a run of any model family: the run directory is locked, logs go to
@@ -511,7 +506,7 @@ impl<'f, F: Family> Session<'f, F> {
 
         // Model, optimiser and stream: fresh, or exactly as the checkpoint left them.
         device.seed(seed);
-        let mut model = family.init(&config, &device);
+        let mut model = family.init(&config, &device)?;
         if let Some(ck) = resume {
             model = family::load_weights(model, &ck.dir.join(checkpoint::MODEL_FILE))?;
         }

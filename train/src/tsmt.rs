@@ -155,10 +155,7 @@ pub fn segmented(set: SequenceSet) -> SequenceSet {
 
 /// The `[tsmt]` table of a TSMT run.
 fn tsmt_of(config: &RunConfig) -> &TsmtConfig {
-    config
-        .tsmt
-        .as_ref()
-        .expect("a TSMT run config has a [tsmt] table (RunConfig::from_table fills it)")
+    config.tsmt_table()
 }
 
 /// A batch of token windows as the model's input and its targets: tokens [B, W, n], MFCC rows and
@@ -222,8 +219,8 @@ impl Family for TsmtFamily {
     type Model = Tsmt;
     type Inputs = (TsmtInput, Tensor<3, Int>);
 
-    fn init(&self, config: &RunConfig, device: &Device) -> Tsmt {
-        Tsmt::new(tsmt_of(config), device)
+    fn init(&self, config: &RunConfig, device: &Device) -> Result<Tsmt> {
+        Ok(Tsmt::new(tsmt_of(config), device))
     }
 
     /// The bins: a resumed run's from its checkpoint, a config's own when it names them, else

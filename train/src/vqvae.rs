@@ -10,7 +10,7 @@ use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::feature_cache;
 use qean_aistpp::windows::{Batch, SequenceSet, WindowSpec};
 use qean_config::run::RunConfig;
-use qean_config::vq::{Quantizer, ResetSource, VqConfig, VqLoss, VqNormalise};
+use qean_config::vqvae::{Quantizer, ResetSource, VqConfig, VqLoss, VqNormalise};
 use qean_io::error::{Error, Result};
 use qean_models::vqvae::quantize::{assign, ChaChaEma, EmaCodebook, EmaOptions};
 use qean_models::vqvae::VqVae;
@@ -38,10 +38,7 @@ pub struct VqInputs {
 
 /// The `[vq]` table of a VQ-VAE run.
 pub fn vq_of(config: &RunConfig) -> &VqConfig {
-    config
-        .vq
-        .as_ref()
-        .expect("a VQ-VAE run config has a [vq] table (RunConfig::from_table fills it)")
+    config.vq_table()
 }
 
 /// The pos72 options of a `[vq]` table.
@@ -171,8 +168,8 @@ impl Family for VqFamily {
     type Model = VqVae;
     type Inputs = VqInputs;
 
-    fn init(&self, config: &RunConfig, device: &Device) -> VqVae {
-        VqVae::new(vq_of(config), device)
+    fn init(&self, config: &RunConfig, device: &Device) -> Result<VqVae> {
+        Ok(VqVae::new(vq_of(config), device))
     }
 
     /// `normalise = "zscore"`: statistics fitted once on the training split (kept by resume).

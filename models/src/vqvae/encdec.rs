@@ -7,7 +7,7 @@ use burn::nn::conv::{Conv1d, Conv1dConfig, ConvTranspose1d, ConvTranspose1dConfi
 use burn::nn::{Initializer, PaddingConfig1d};
 use burn::tensor::activation::relu;
 use burn::tensor::{Device, Tensor};
-use qean_config::vq::{Dilations, VqConfig, VqDecoder};
+use qean_config::vqvae::{Dilations, VqConfig, VqDecoder};
 
 use qean_motion::pos72::POS72;
 

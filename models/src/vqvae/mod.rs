@@ -14,7 +14,7 @@ pub mod quantize;
 
 use burn::module::{Module, Param};
 use burn::tensor::{Device, Int, Tensor, TensorData};
-use qean_config::vq::{Quantizer, VqConfig};
+use qean_config::vqvae::{Quantizer, VqConfig};
 
 use encdec::{Decoder, Encoder};
 use quantize::{assign, EmaCodebook};

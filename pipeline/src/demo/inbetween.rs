@@ -4,7 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
+use crate::edit::{edit, sibling, EditMethod, EditRequest};
+use crate::error::Context;
 use qean_eval::motion_energy::{joint_accels, joint_speeds};
 use qean_eval::Frame;
 use qean_io::fsutil::atomic_write;
@@ -12,7 +13,6 @@ use qean_keyframes::bezier::BezierSettings;
 use qean_keyframes::KeyframeOptions;
 use qean_motion::motion::read_motion;
 use qean_motion::FkRoot;
-use qean_pipeline::edit::{edit, sibling, EditMethod, EditRequest};
 use qean_train::checkpoint::Checkpoint;
 
 /// Keys per measure (Lin's middle setting).
@@ -55,14 +55,14 @@ fn mpjpe(a: &[Frame], b: &[Frame]) -> f64 {
     let mut n = 0usize;
     for (fa, fb) in a.iter().zip(b) {
         for (p, q) in fa.iter().zip(fb) {
-            s += ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt();
+            s += qean_motion::vec3::norm(qean_motion::vec3::sub(*p, *q));
             n += 1;
         }
     }
     s / n.max(1) as f64
 }
 
-fn joints_of(path: &Path) -> anyhow::Result<Vec<Frame>> {
+fn joints_of(path: &Path) -> crate::Result<Vec<Frame>> {
     let m = read_motion(path)?;
     Ok(qean_eval::run_report::frames_of(m.joints(FkRoot::Smpl)))
 }
@@ -74,7 +74,7 @@ pub fn run(
     data: &Path,
     run_dir: &Path,
     ck: &Checkpoint,
-) -> anyhow::Result<InbetweenDemo> {
+) -> crate::Result<InbetweenDemo> {
     let ds = qean_aistpp::dataset::Dataset::open(data)?;
     let name = ds
         .split(qean_aistpp::dataset::Split::Test)
@@ -138,44 +138,9 @@ pub fn run(
             genre: None,
             theta: None,
         })?;
-        let anchors: std::collections::BTreeSet<usize> = report
-            .ranges
-            .iter()
-            .flat_map(|r| r.anchors.iter().copied())
-            .collect();
-        keys = anchors.len();
-        let rebuilt = joints_of(&out_pkl)?;
-        let next: Vec<usize> = (0..rebuilt.len())
-            .filter(|t| {
-                !anchors.contains(t)
-                    && (anchors.contains(&(t + 1)) || (*t > 0 && anchors.contains(&(t - 1))))
-            })
-            .collect();
-        let pick = |f: &[Frame]| next.iter().map(|&t| f[t]).collect::<Vec<_>>();
-        rows.push(Rebuilt {
-            label,
-            mse_rotmat: mean(
-                &report
-                    .ranges
-                    .iter()
-                    .map(|r| r.mse_rotmat)
-                    .collect::<Vec<_>>(),
-            ),
-            mpjpe: mpjpe(&rebuilt, &original),
-            mpjpe_next_to_key: mpjpe(&pick(&rebuilt), &pick(&original)),
-            speed: mean(&joint_speeds(&rebuilt)),
-            accel: mean(&joint_accels(&rebuilt)),
-            files: ["pkl", "report.json", "png", "gif"]
-                .iter()
-                .map(|e| {
-                    if *e == "pkl" {
-                        out_pkl.clone()
-                    } else {
-                        sibling(&out_pkl, e)
-                    }
-                })
-                .collect(),
-        });
+        let (row, n) = score(label, &report, &out_pkl, &original)?;
+        keys = n;
+        rows.push(row);
     }
     Ok(InbetweenDemo {
         sequence: name,
@@ -186,6 +151,49 @@ pub fn run(
         checkpoint: ck.dir.clone(),
         rows,
     })
+}
+
+/// How close `out_pkl` (rebuilt by an edit that reported `report`) is to the original, over every frame
+/// and next to a key; with the number of distinct keys.
+fn score(
+    label: String,
+    report: &crate::edit::EditReport,
+    out_pkl: &Path,
+    original: &[Frame],
+) -> crate::Result<(Rebuilt, usize)> {
+    let anchors: std::collections::BTreeSet<usize> = report
+        .ranges
+        .iter()
+        .flat_map(|r| r.anchors.iter().copied())
+        .collect();
+    let rebuilt = joints_of(out_pkl)?;
+    let next: Vec<usize> = (0..rebuilt.len())
+        .filter(|t| {
+            !anchors.contains(t)
+                && (anchors.contains(&(t + 1)) || (*t > 0 && anchors.contains(&(t - 1))))
+        })
+        .collect();
+    let pick = |f: &[Frame]| next.iter().map(|&t| f[t]).collect::<Vec<_>>();
+    let mse: Vec<f64> = report.ranges.iter().map(|r| r.mse_rotmat).collect();
+    let row = Rebuilt {
+        label,
+        mse_rotmat: mean(&mse),
+        mpjpe: mpjpe(&rebuilt, original),
+        mpjpe_next_to_key: mpjpe(&pick(&rebuilt), &pick(original)),
+        speed: mean(&joint_speeds(&rebuilt)),
+        accel: mean(&joint_accels(&rebuilt)),
+        files: ["pkl", "report.json", "png", "gif"]
+            .iter()
+            .map(|e| {
+                if *e == "pkl" {
+                    out_pkl.to_path_buf()
+                } else {
+                    sibling(out_pkl, e)
+                }
+            })
+            .collect(),
+    };
+    Ok((row, anchors.len()))
 }
 
 /// The section's table and its verdict, in words.

@@ -4,8 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
-use qean_pipeline::evaluate::RunEvalRequest;
-use qean_pipeline::genre_control::{control_test, ControlReport};
+use crate::evaluate::RunEvalRequest;
+use crate::genre_control::{control_test, ControlReport};
 use qean_train::checkpoint::Checkpoint;
 
 /// The genres whose dances to the held-out song the demo writes (`dances/genre-<G>/`): two whose
@@ -27,7 +27,7 @@ pub fn run(
     clf: &Checkpoint,
     genre_run: &Path,
     max_frames: usize,
-) -> anyhow::Result<GenreDemo> {
+) -> crate::Result<GenreDemo> {
     let req = RunEvalRequest {
         max_frames,
         ..RunEvalRequest::new(genre_run, data)
@@ -49,8 +49,8 @@ const SECTION: &str = "## Genre control test";
 
 /// Copies `control.md` (both accuracies with their confusion matrices) into the `report.md` beside
 /// it, replacing the copy an earlier demo appended, so that the run's report holds the whole verdict.
-fn append_to_report(control_md: &Path) -> anyhow::Result<()> {
-    use anyhow::Context;
+fn append_to_report(control_md: &Path) -> crate::Result<()> {
+    use crate::error::Context;
     let report = control_md.with_file_name("report.md");
     let read = |p: &Path| {
         std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))

@@ -12,7 +12,9 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::{bail, Context};
+pub mod genre;
+pub mod inbetween;
+
 use indicatif::ProgressBar;
 use qean_config::run::string_override;
 use qean_config::RunConfig;
@@ -20,8 +22,10 @@ use qean_eval::motion_energy::{motion_energy, EnergyReference, MotionEnergy};
 use qean_eval::report::MetricsReport;
 use qean_eval::run_report::RunReport;
 use qean_io::fsutil::atomic_write;
-use qean_pipeline::evaluate::{evaluate_run, RunEvalRequest};
-use qean_pipeline::generate::{self, GenerateOptions, SeedSource};
+
+use crate::error::{bail, Context};
+use crate::evaluate::{evaluate_run, RunEvalRequest};
+use crate::generate::{self, GenerateOptions, SeedSource};
 use qean_synth::{self as synth, RealTrack, SynthOptions};
 use qean_train::checkpoint::Checkpoint;
 use qean_train::ProgressMode;
@@ -36,7 +40,7 @@ macro_rules! asset {
     ($p:literal) => {
         Asset {
             path: $p,
-            bytes: include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/", $p)),
+            bytes: include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../", $p)),
         }
     };
 }
@@ -80,7 +84,7 @@ pub(crate) const CLF: &str = "genre_clf";
 pub(crate) const GENRE: &str = "genre";
 
 /// The run name of the demo's in-betweener (trained beside the dance models, used by
-/// [`crate::demo_inbetween`]).
+/// [`inbetween`]).
 const INBETWEENER: &str = "inbetween";
 
 /// The held-out song the demo dances to (not in the dataset).
@@ -111,6 +115,9 @@ pub struct Budget {
     pub eval_frames: usize,
     /// `--set` overrides of the recipe beyond the presets' (empty: the presets' own).
     pub recipe: Vec<String>,
+    /// Train on data whose genres show (`--genre-data`): every genre holds its posture and its music plays
+    /// its riff (`qean synth --genre-postures --genre-music`; docs/control.md).
+    pub genre_data: bool,
 }
 
 impl Budget {
@@ -142,6 +149,7 @@ impl Budget {
                 dance_frames: 1200,
                 eval_frames: 300,
                 recipe: Vec::new(),
+                genre_data: false,
             }
         } else {
             Budget {
@@ -155,6 +163,7 @@ impl Budget {
                 dance_frames: 1200,
                 eval_frames: 600,
                 recipe: Vec::new(),
+                genre_data: false,
             }
         }
     }
@@ -182,6 +191,8 @@ pub struct DemoOptions {
     /// Set (e.g. by Ctrl-C) to stop training with a checkpoint; the next run resumes.
     pub stop: Arc<AtomicBool>,
     pub progress: ProgressMode,
+    /// The `qean` executable that trains each stage in a process of its own (`qean train`).
+    pub exe: PathBuf,
 }
 
 /// One dance to the held-out song.
@@ -219,7 +230,7 @@ pub struct DemoResult {
     pub table: String,
     pub summary: PathBuf,
     /// The in-betweening section (none when training was interrupted).
-    pub inbetween: Option<crate::demo_inbetween::InbetweenDemo>,
+    pub inbetween: Option<inbetween::InbetweenDemo>,
     /// False when training was interrupted (the table is then not written).
     pub finished: bool,
 }
@@ -229,7 +240,7 @@ fn say(msg: impl AsRef<str>) {
 }
 
 /// Writes the embedded files under `out` (skipping those already there with the same bytes).
-pub fn write_assets(out: &Path) -> anyhow::Result<()> {
+pub fn write_assets(out: &Path) -> crate::Result<()> {
     for a in ASSETS {
         let path = out.join(a.path);
         if std::fs::read(&path).ok().as_deref() == Some(a.bytes) {
@@ -244,7 +255,7 @@ pub fn write_assets(out: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn dataset(out: &Path, budget: &Budget) -> anyhow::Result<PathBuf> {
+fn dataset(out: &Path, budget: &Budget) -> crate::Result<PathBuf> {
     let dir = out.join("data");
     let info = dir.join("synth.json");
     if info.is_file() {
@@ -272,6 +283,15 @@ fn dataset(out: &Path, budget: &Budget) -> anyhow::Result<PathBuf> {
                 budget.seconds
             );
         }
+        let shows = |key: &str| v[key].as_bool().unwrap_or(false);
+        if shows("genre_postures") != budget.genre_data || shows("genre_music") != budget.genre_data
+        {
+            bail!(
+                "{}: made {} --genre-data; use another --out",
+                dir.display(),
+                if budget.genre_data { "without" } else { "with" }
+            );
+        }
         say(format!("dataset: reusing {}", dir.display()));
         return Ok(dir);
     }
@@ -292,6 +312,8 @@ fn dataset(out: &Path, budget: &Budget) -> anyhow::Result<PathBuf> {
             seconds: budget.seconds,
             seed: 0,
             real_music,
+            genre_postures: budget.genre_data,
+            genre_music: budget.genre_data,
             ..Default::default()
         },
     )?;
@@ -337,19 +359,25 @@ fn overrides(b: &Budget, data: &Path, name: &str, steps: u64) -> Vec<String> {
 /// A finished run: its newest checkpoint, training seconds and last loss.
 type Trained = (Checkpoint, f64, Option<f64>);
 
-/// Trains every model at once, each in its own `qean train` process: a tiny model keeps one
-/// core busy, so on two cores two runs take the time of one. Each child resumes its run when it
-/// has checkpoints (an interrupted demo continues). Ctrl-C reaches the children too (same
-/// process group): each checkpoints and exits, and this returns `None`.
-fn train_all(
+/// One training run to start: its name, preset, config file, run directory, whether it resumes, its
+/// overrides and steps.
+struct Plan<'a> {
+    name: &'a str,
+    preset: &'a str,
+    config: PathBuf,
+    run_dir: PathBuf,
+    resume: bool,
+    overrides: Vec<String>,
+    steps: u64,
+}
+
+/// The runs of `presets`, each checked (its preset loads; an earlier run of the same name was made with
+/// the same config) before anything starts.
+fn plan<'a>(
     opts: &DemoOptions,
     data: &Path,
-    presets: &[(&str, &str, &str)],
-) -> anyhow::Result<Option<Vec<Trained>>> {
-    use std::io::BufRead;
-    use std::process::{Command, Stdio};
-    let exe = std::env::current_exe().context("cannot find the qean executable")?;
-    // Every preset and earlier run is checked before anything starts.
+    presets: &[(&'a str, &str, &'a str)],
+) -> crate::Result<Vec<Plan<'a>>> {
     let mut plans = Vec::new();
     for (name, _, preset) in presets {
         let steps = opts.budget.steps_for(name);
@@ -378,58 +406,97 @@ fn train_all(
             // a preset changed) stops the demo before any training starts.
             qean_train::checkpoint::resolve(&run_dir)?.check_config(&wanted)?;
         }
-        plans.push((name, preset, config, run_dir, resume, overrides, steps));
-    }
-    let mut children = Vec::new();
-    for (name, preset, config, run_dir, resume, overrides, steps) in plans {
-        say(format!(
-            "train {name}: {preset}, {steps} steps → {}{}",
-            run_dir.display(),
-            if resume { " (continuing)" } else { "" }
-        ));
-        let mut cmd = Command::new(&exe);
-        cmd.arg("train").arg("--config").arg(&config).arg("--plain");
-        if resume {
-            cmd.arg("--resume").arg(&run_dir);
-        } else {
-            cmd.arg("--run-dir").arg(&run_dir);
-        }
-        for o in &overrides {
-            cmd.arg("--set").arg(o);
-        }
-        let mut child = cmd
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .with_context(|| format!("cannot start {}", exe.display()))?;
-        // Progress lines, prefixed; the last one is the error if the child fails.
-        let stderr = child.stderr.take().expect("piped");
-        let label = name.to_string();
-        let quiet = opts.progress == ProgressMode::Quiet;
-        let reader = std::thread::spawn(move || {
-            let mut last = String::new();
-            for line in std::io::BufReader::new(stderr)
-                .lines()
-                .map_while(|l| l.ok())
-            {
-                if !quiet && !line.trim().is_empty() {
-                    say(format!("train {label}: {line}"));
-                }
-                last = line;
-            }
-            last
+        plans.push(Plan {
+            name,
+            preset,
+            config,
+            run_dir,
+            resume,
+            overrides,
+            steps,
         });
-        children.push((name.to_string(), run_dir, child, reader));
+    }
+    Ok(plans)
+}
+
+/// A started `qean train` process and the thread that forwards its stderr (returning the last line).
+type Started = (std::process::Child, std::thread::JoinHandle<String>);
+
+/// Starts the `qean train` process of `p`; its progress lines are printed with its name (unless `quiet`).
+fn start(exe: &Path, p: &Plan, quiet: bool) -> crate::Result<Started> {
+    use std::io::BufRead;
+    use std::process::{Command, Stdio};
+    say(format!(
+        "train {}: {}, {} steps → {}{}",
+        p.name,
+        p.preset,
+        p.steps,
+        p.run_dir.display(),
+        if p.resume { " (continuing)" } else { "" }
+    ));
+    let mut cmd = Command::new(exe);
+    cmd.arg("train")
+        .arg("--config")
+        .arg(&p.config)
+        .arg("--plain");
+    if p.resume {
+        cmd.arg("--resume").arg(&p.run_dir);
+    } else {
+        cmd.arg("--run-dir").arg(&p.run_dir);
+    }
+    for o in &p.overrides {
+        cmd.arg("--set").arg(o);
+    }
+    let mut child = cmd
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .with_context(|| format!("cannot start {}", exe.display()))?;
+    // Progress lines, prefixed; the last one is the error if the child fails.
+    let stderr = child.stderr.take().expect("piped");
+    let label = p.name.to_string();
+    let reader = std::thread::spawn(move || {
+        let mut last = String::new();
+        for line in std::io::BufReader::new(stderr)
+            .lines()
+            .map_while(|l| l.ok())
+        {
+            if !quiet && !line.trim().is_empty() {
+                say(format!("train {label}: {line}"));
+            }
+            last = line;
+        }
+        last
+    });
+    Ok((child, reader))
+}
+
+/// Trains every model at once, each in its own `qean train` process: a tiny model keeps one
+/// core busy, so on two cores two runs take the time of one. Each child resumes its run when it
+/// has checkpoints (an interrupted demo continues). Ctrl-C reaches the children too (same
+/// process group): each checkpoints and exits, and this returns `None`.
+fn train_all(
+    opts: &DemoOptions,
+    data: &Path,
+    presets: &[(&str, &str, &str)],
+) -> crate::Result<Option<Vec<Trained>>> {
+    // Every preset and earlier run is checked before anything starts.
+    let plans = plan(opts, data, presets)?;
+    let quiet = opts.progress == ProgressMode::Quiet;
+    let mut children = Vec::new();
+    for p in &plans {
+        children.push((p, start(&opts.exe, p, quiet)?));
     }
     let mut results = Vec::new();
     let mut interrupted = false;
     let mut failure = None;
-    for (name, run_dir, mut child, reader) in children {
+    for (p, (mut child, reader)) in children {
+        let name = p.name;
         let status = child.wait().context("waiting for a training process")?;
         let last = reader.join().unwrap_or_default();
         match status.code() {
             Some(0) => {
-                let ck = qean_train::checkpoint::resolve(&run_dir)?;
+                let ck = qean_train::checkpoint::resolve(&p.run_dir)?;
                 let (seconds, loss) = (ck.state.elapsed_seconds, ck.state.last_loss);
                 results.push((ck, seconds, loss));
             }
@@ -473,8 +540,8 @@ fn dance(
     dir_name: &str,
     ck: &Checkpoint,
     frames: usize,
-    genre: Option<qean_pipeline::gpt::GenreChoice>,
-) -> anyhow::Result<(Vec<PathBuf>, Vec<qean_eval::Frame>)> {
+    genre: Option<crate::gpt::GenreChoice>,
+) -> crate::Result<(Vec<PathBuf>, Vec<qean_eval::Frame>)> {
     let name = dir_name;
     let dir = out.join("dances").join(dir_name);
     let stem = "Vibe_Ace";
@@ -553,8 +620,8 @@ fn dance(
 
 /// `dances/compare.html`: the first test sequence's ground truth (to its own music) beside every model's
 /// dance to the held-out song, with that song playing.
-fn compare_page(out: &Path, data: &Path, models: &[ModelResult]) -> anyhow::Result<PathBuf> {
-    use qean_pipeline::view::{write_page, PageDance, PageMusic};
+fn compare_page(out: &Path, data: &Path, models: &[ModelResult]) -> crate::Result<PathBuf> {
+    use crate::view::{write_page, PageDance, PageMusic};
     let root = qean_motion::FkRoot::Smpl;
     let ds = qean_aistpp::dataset::Dataset::open(data)?;
     let first = ds
@@ -600,7 +667,7 @@ fn evaluate(
     data: &Path,
     ck: &Checkpoint,
     max_frames: usize,
-) -> anyhow::Result<(RunReport, PathBuf)> {
+) -> crate::Result<(RunReport, PathBuf)> {
     let dir = run_dir
         .join("eval")
         .join(qean_train::run_dir::checkpoint_name(ck.state.step));
@@ -631,7 +698,7 @@ fn evaluate(
     Ok((evaluation.report, md))
 }
 
-fn read_report(path: &Path) -> anyhow::Result<RunReport> {
+fn read_report(path: &Path) -> crate::Result<RunReport> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("{}: cannot read", path.display()))?;
     serde_json::from_str(&text).with_context(|| format!("{}: not a report", path.display()))
@@ -642,8 +709,17 @@ fn num(v: Option<f64>) -> String {
 }
 
 /// The final tables: the evaluation (ground truth, each model, the chance baselines), the
-/// held-out dance's motion energy; then the checks, in words.
+/// held-out dance's motion energy, Li et al.'s metrics; then the checks, in words.
 pub fn table(models: &[ModelResult], reference: &EnergyReference) -> String {
+    eval_table(models)
+        + &held_out_table(models, reference)
+        + &li_table(models)
+        + "\n"
+        + &checks(models)
+}
+
+/// The evaluation on the test + val split: the ground truth, each model, the chance baselines.
+fn eval_table(models: &[ModelResult]) -> String {
     let mut t = String::from(
         "| | FID_k ↓ | FID_g ↓ | Dist_k → | Dist_g → | BeatAlign ↑ | speed ratio → 1 | accel ratio → 1 | frozen ↓ | train time |\n\
          |---|---|---|---|---|---|---|---|---|---|\n",
@@ -696,7 +772,12 @@ pub fn table(models: &[ModelResult], reference: &EnergyReference) -> String {
             );
         }
     }
-    t += &format!(
+    t
+}
+
+/// The held-out song's dances per 5-s span, with their verdicts.
+fn held_out_table(models: &[ModelResult], reference: &EnergyReference) -> String {
+    let mut t = format!(
         "\nThe held-out song's dance (generated frames only), against the synthetic ground truth's mean joint speed \
          {:.3} m/s and acceleration {:.2} m/s² (a 1-s window is frozen below {:.3} m/s):\n\n\
          | | speed per 5 s (m/s) | speed ratio per 5 s (0.6–1.6) | accel ratio per 5 s (≤ 2) | frozen (≤ 10 %) | verdict |\n\
@@ -718,8 +799,13 @@ pub fn table(models: &[ModelResult], reference: &EnergyReference) -> String {
             e.verdict_word()
         );
     }
-    t += &li_table(models);
-    t += "\n";
+    t
+}
+
+/// One line per model: its held-out dances in words, FID_k against 0.7 × the frozen baseline's, BeatAlign
+/// against random pairing's.
+fn checks(models: &[ModelResult]) -> String {
+    let mut t = String::new();
     for m in models {
         let (Some(r), Some(b)) = (m.report.reports.first(), m.report.baselines.as_ref()) else {
             continue;
@@ -843,17 +929,22 @@ fn summary_text(
     data: &Path,
     table: &str,
     models: &[ModelResult],
-    inbetween: &crate::demo_inbetween::InbetweenDemo,
+    inbetween: &inbetween::InbetweenDemo,
     seconds: f64,
 ) -> String {
     let mut summary = format!(
-        "# qean demo\n\nDataset: {} ({} sequences of ~{} s). FACT and QEAN trained {} steps, TSMT {}, the VQ-VAE and \
+        "# qean demo\n\nDataset: {} ({} sequences of ~{} s{}). FACT and QEAN trained {} steps, TSMT {}, the VQ-VAE and \
          the GPT {} one after the other, genre control {} after them (batch {}, FACT/QEAN windows of {} motion / {} \
          music frames) on CPU; scored on the test + val split (seed = the first {} ground-truth frames, TSMT's and \
          the GPT's 120, then up to {} generated frames), Bailando's metrics and Li et al.'s.\n\n{table}\n## Artefacts\n\n",
         data.display(),
         budget.sequences,
         budget.seconds,
+        if budget.genre_data {
+            "; --genre-data: each genre holds its posture, its music plays its riff"
+        } else {
+            ""
+        },
         budget.steps,
         budget.steps_for("tsmt"),
         budget.steps_for(GPT),
@@ -941,9 +1032,9 @@ type TrainedStage = (&'static str, &'static str, Trained);
 
 /// Trains every stage (side by side, the VQ-VAE → GPT → genre chain in its own thread); `None` when
 /// interrupted. Each finished run with its name and label.
-fn train_stages(opts: &DemoOptions, data: &Path) -> anyhow::Result<Option<Vec<TrainedStage>>> {
+fn train_stages(opts: &DemoOptions, data: &Path) -> crate::Result<Option<Vec<TrainedStage>>> {
     let (side, chained) = std::thread::scope(|scope| {
-        let chained = scope.spawn(|| -> anyhow::Result<Option<Vec<Trained>>> {
+        let chained = scope.spawn(|| -> crate::Result<Option<Vec<Trained>>> {
             let mut done = Vec::new();
             for stage in &CHAIN {
                 match train_all(opts, data, std::slice::from_ref(stage))? {
@@ -957,7 +1048,7 @@ fn train_stages(opts: &DemoOptions, data: &Path) -> anyhow::Result<Option<Vec<Tr
         (side, chained.join())
     });
     let chained = chained
-        .map_err(|_| anyhow::anyhow!("internal: the VQ-VAE → GPT → genre thread panicked"))?;
+        .map_err(|_| crate::Error::invalid("internal: the VQ-VAE → GPT → genre thread panicked"))?;
     let (Some(side), Some(chained)) = (side?, chained?) else {
         return Ok(None);
     };
@@ -980,19 +1071,19 @@ fn held_out_dances(
     ck: &Checkpoint,
     budget: &Budget,
     reference: &EnergyReference,
-) -> anyhow::Result<Vec<DanceResult>> {
-    let steered: Vec<(String, String, Option<qean_pipeline::gpt::GenreChoice>)> = if name == GENRE {
-        crate::demo_genre::SHOWN
+) -> crate::Result<Vec<DanceResult>> {
+    let steered: Vec<(String, String, Option<crate::gpt::GenreChoice>)> = if name == GENRE {
+        genre::SHOWN
             .iter()
             .map(|g| {
-                let choice = qean_pipeline::gpt::GenreChoice::parse(g, 0)?;
+                let choice = crate::gpt::GenreChoice::parse(g, 0)?;
                 Ok((
                     format!("genre-{g}"),
                     format!("tiny GPT + genre control, --genre {g}"),
                     Some(choice),
                 ))
             })
-            .collect::<anyhow::Result<_>>()?
+            .collect::<crate::Result<_>>()?
     } else {
         vec![(name.to_string(), label.to_string(), None)]
     };
@@ -1014,7 +1105,7 @@ fn held_out_dances(
 }
 
 /// Runs the demo.
-pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
+pub fn run(opts: &DemoOptions) -> crate::Result<DemoResult> {
     let started = Instant::now();
     let out = &opts.out;
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
@@ -1064,7 +1155,7 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
         });
     }
     say("genre control: the classifier on the ground truth, then every test + val music in each of the 10 genres");
-    let genre = crate::demo_genre::run(
+    let genre = genre::run(
         &data,
         &clf_ck,
         &out.join("runs").join(GENRE),
@@ -1077,14 +1168,13 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
     ));
     say(format!(
         "in-betweening: rebuilding a test dance from {} keys per measure",
-        crate::demo_inbetween::KEYS
+        inbetween::KEYS
     ));
-    let inbetween =
-        crate::demo_inbetween::run(out, &data, &out.join("runs").join(INBETWEENER), &ib_ck)?;
+    let inbetween = inbetween::run(out, &data, &out.join("runs").join(INBETWEENER), &ib_ck)?;
     let table = table(&models, &reference)
         + &table_note(&opts.budget, &models)
-        + &crate::demo_genre::table(&genre)
-        + &crate::demo_inbetween::table(&inbetween);
+        + &genre::table(&genre)
+        + &inbetween::table(&inbetween);
     let summary = summary_text(
         &opts.budget,
         &data,
@@ -1106,4 +1196,59 @@ pub fn run(opts: &DemoOptions) -> anyhow::Result<DemoResult> {
         inbetween: Some(inbetween),
         finished: true,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    //! The demo's stages are library code: called here without a process.
+
+    use super::*;
+
+    fn options(out: &Path, genre_data: bool) -> DemoOptions {
+        DemoOptions {
+            out: out.to_path_buf(),
+            budget: Budget {
+                genre_data,
+                ..Budget::new(true)
+            },
+            stop: Arc::new(AtomicBool::new(false)),
+            progress: ProgressMode::Quiet,
+            // Never started: the checks below stop the demo before any training.
+            exe: PathBuf::from("/nonexistent/qean"),
+        }
+    }
+
+    /// A dataset left by a demo of the other kind (with or without --genre-data) is refused before anything
+    /// trains, with one line that names it and says what to do.
+    #[test]
+    fn demo_refuses_a_dataset_of_the_other_kind() {
+        for (made_with, wanted) in [(true, false), (false, true)] {
+            let dir = tempfile::tempdir().unwrap();
+            let data = dir.path().join("data");
+            std::fs::create_dir_all(&data).unwrap();
+            let names: Vec<String> = (0..24).map(|i| format!("\"s{i}\"")).collect();
+            let report = format!(
+                "{{\"varied_music\": true, \"seconds\": 8.0, \"genre_postures\": {made_with}, \
+                 \"genre_music\": {made_with}, \"splits\": {{\"train\": [{}]}}}}",
+                names.join(", ")
+            );
+            std::fs::write(data.join("synth.json"), report).unwrap();
+            let e = run(&options(dir.path(), wanted)).unwrap_err().to_string();
+            assert!(e.contains("--genre-data") && e.contains("data"), "{e}");
+            assert!(!e.contains('\n'), "one line: {e}");
+            assert!(!dir.path().join("runs").exists(), "nothing trained");
+        }
+    }
+
+    /// Each stage's share of the budget (the docs quote these).
+    #[test]
+    fn stage_budgets() {
+        let b = Budget::new(false);
+        assert_eq!(b.steps_for("fact"), 4000);
+        assert_eq!(b.steps_for("tsmt"), 3000);
+        assert_eq!(b.steps_for("gpt"), 3000);
+        assert_eq!(b.steps_for("genre"), 2000);
+        assert_eq!(b.steps_for("genre_clf"), 1000);
+        assert!(!b.genre_data);
+    }
 }

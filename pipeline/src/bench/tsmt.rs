@@ -23,7 +23,7 @@ fn tokens(n: usize, bins: usize, seed: u64) -> Vec<i64> {
         .collect()
 }
 
-pub fn train(backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
+pub fn train(backend: &str, inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
     let config = load_config(inputs.config(MeasureId::TrainTsmt))?;
     let t = config.tsmt();
     let device = device(backend)?.autodiff();
@@ -56,7 +56,7 @@ pub fn train(backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<En
         let (next, value) =
             apply_update(model, &mut optim, loss, 1e-4, config.optim.grad_clip_norm);
         model = next;
-        anyhow::ensure!(value.is_finite(), "the benchmark loss is not finite");
+        crate::error::ensure!(value.is_finite(), "the benchmark loss is not finite");
         if k > 0 {
             times.push(start.elapsed().as_secs_f64());
         }
@@ -119,7 +119,7 @@ fn rollout_fps(
     (rows * frames) as f64 / seconds
 }
 
-pub fn sampling(backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
+pub fn sampling(backend: &str, inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
     let config = load_config(inputs.config(MeasureId::SampleTsmt))?;
     let t = config.tsmt();
     let device = device(backend)?;

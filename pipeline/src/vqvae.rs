@@ -33,7 +33,7 @@ impl TrainedVq {
     /// The newest checkpoint of a run (or a checkpoint directory), which must be a VQ-VAE.
     pub fn load(run: &std::path::Path, checkpoint: Option<&str>) -> Result<TrainedVq> {
         let checkpoint = qean_train::checkpoint::resolve_in_run(run, checkpoint)?;
-        if !checkpoint.config.is_vqvae() {
+        if !matches!(checkpoint.config.spec(), qean_config::ModelSpec::Vqvae(_)) {
             return Err(Error::Invalid(format!(
                 "{}: not a VQ-VAE run (model.arch = {:?})",
                 checkpoint.dir.display(),

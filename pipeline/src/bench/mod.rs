@@ -21,6 +21,8 @@ mod tsmt;
 
 use std::path::PathBuf;
 
+use crate::error::Context;
+
 pub use measures::{run_measure, Inputs, MeasureId, Sizes};
 pub use peers::{PeerCommand, Peers};
 pub use report::{markdown, BenchReport, Entry, Machine, PeerResult};
@@ -69,11 +71,12 @@ impl BenchOptions {
 }
 
 /// Runs the selected measures (and their peers); `progress` is told each step's label.
-pub fn run(opts: &BenchOptions, mut progress: impl FnMut(&str)) -> anyhow::Result<BenchReport> {
-    std::fs::create_dir_all(&opts.work_dir)?;
+pub fn run(opts: &BenchOptions, mut progress: impl FnMut(&str)) -> crate::Result<BenchReport> {
+    std::fs::create_dir_all(&opts.work_dir).map_err(|e| qean_io::Error::io(&opts.work_dir, e))?;
     let inputs = measures::Inputs::prepare(&opts.work_dir, &opts.sizes)?;
     let sizes_json = opts.work_dir.join(SIZES_FILE);
-    qean_io::fsutil::atomic_write(&sizes_json, serde_json::to_string(&opts.sizes)?.as_bytes())?;
+    let sizes = serde_json::to_string(&opts.sizes).context("the benchmark sizes")?;
+    qean_io::fsutil::atomic_write(&sizes_json, sizes.as_bytes())?;
     let mut entries = Vec::new();
     for &id in &opts.measures {
         let backends: Vec<&str> = if id.uses_model() {
@@ -99,7 +102,7 @@ pub fn run(opts: &BenchOptions, mut progress: impl FnMut(&str)) -> anyhow::Resul
                     match peers.run(id, &inputs, &opts.sizes) {
                         Ok(p) => entry.peer = Some(p),
                         Err(e) => {
-                            eprintln!("warning: {e:#}");
+                            tracing::warn!("{e}");
                             entry.peer_error = Some(format!("{e:#}"));
                         }
                     }
@@ -124,7 +127,7 @@ fn run_child(
     id: MeasureId,
     backend: &str,
     work_dir: &std::path::Path,
-) -> anyhow::Result<Entry> {
+) -> crate::Result<Entry> {
     let out = std::process::Command::new(exe)
         .args([
             "bench",
@@ -137,8 +140,8 @@ fn run_child(
         .arg(work_dir)
         .stderr(std::process::Stdio::inherit())
         .output()
-        .map_err(|e| anyhow::anyhow!("{}: cannot start the measure process: {e}", exe.display()))?;
-    anyhow::ensure!(
+        .with_context(|| format!("{}: cannot start the measure process", exe.display()))?;
+    crate::error::ensure!(
         out.status.success(),
         "the {} measure process failed ({})",
         id.name(),
@@ -151,7 +154,7 @@ fn run_child(
         .find(|l| !l.trim().is_empty())
         .unwrap_or("");
     serde_json::from_str(line)
-        .map_err(|e| anyhow::anyhow!("the {} measure process printed no result: {e}", id.name()))
+        .with_context(|| format!("the {} measure process printed no result", id.name()))
 }
 
 /// The child side of [`BenchOptions::isolate`]: one measure on the inputs of `work_dir`, its
@@ -160,13 +163,14 @@ pub fn run_child_measure(
     id: MeasureId,
     backend: &str,
     work_dir: &std::path::Path,
-) -> anyhow::Result<String> {
+) -> crate::Result<String> {
     let sizes_path = work_dir.join(SIZES_FILE);
-    let text = std::fs::read_to_string(&sizes_path)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", sizes_path.display()))?;
-    let sizes: Sizes = serde_json::from_str(&text)?;
+    let text =
+        std::fs::read_to_string(&sizes_path).map_err(|e| qean_io::Error::io(&sizes_path, e))?;
+    let sizes: Sizes =
+        serde_json::from_str(&text).with_context(|| format!("{}", sizes_path.display()))?;
     // The parent prepared them; the child only needs their paths and the set.
     let inputs = measures::Inputs::open(work_dir, &sizes);
     let entry = run_measure(id, backend, &inputs, &sizes)?;
-    Ok(serde_json::to_string(&entry)?)
+    serde_json::to_string(&entry).context("the benchmark entry")
 }

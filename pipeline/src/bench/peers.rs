@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-use anyhow::Context;
+use crate::error::Context;
 
 use super::measures::{Inputs, MeasureId, Sizes};
 use super::report::PeerResult;
@@ -125,7 +125,7 @@ impl Peers {
     }
 
     /// Runs `id`'s peer and reads its result.
-    pub fn run(&self, id: MeasureId, inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<PeerResult> {
+    pub fn run(&self, id: MeasureId, inputs: &Inputs, sizes: &Sizes) -> crate::Result<PeerResult> {
         let cmd = self.command(id, inputs, sizes);
         let out = Command::new(&cmd.program)
             .args(&cmd.args)
@@ -136,14 +136,14 @@ impl Peers {
         if !out.status.success() {
             let stderr = String::from_utf8_lossy(&out.stderr);
             let last = stderr.lines().last().unwrap_or("no message");
-            anyhow::bail!("peer of {} failed (`{cmd}`): {last}", id.name());
+            crate::error::bail!("peer of {} failed (`{cmd}`): {last}", id.name());
         }
         parse_result(&stdout).with_context(|| format!("peer of {} (`{cmd}`)", id.name()))
     }
 }
 
 /// The JSON object on the last non-empty line of a peer's output.
-pub fn parse_result(stdout: &str) -> anyhow::Result<PeerResult> {
+pub fn parse_result(stdout: &str) -> crate::Result<PeerResult> {
     let line = stdout
         .lines()
         .rev()
@@ -154,7 +154,7 @@ pub fn parse_result(stdout: &str) -> anyhow::Result<PeerResult> {
     let num = |k: &str| v.get(k).and_then(serde_json::Value::as_f64);
     let text = |k: &str| v.get(k).and_then(serde_json::Value::as_str).unwrap_or("");
     let value = num("value").context("no numeric `value`")?;
-    anyhow::ensure!(
+    crate::error::ensure!(
         value.is_finite() && value > 0.0,
         "`value` {value} is not a positive number"
     );

@@ -183,7 +183,7 @@ impl Inputs {
     }
 
     /// Writes the inputs under `dir`: the embedded configs and music, the track, the set's JSON.
-    pub fn prepare(dir: &Path, sizes: &Sizes) -> anyhow::Result<Inputs> {
+    pub fn prepare(dir: &Path, sizes: &Sizes) -> crate::Result<Inputs> {
         let inputs = Inputs::open(dir, sizes);
         crate::demo::write_assets(dir)?;
         let source = dir.join("assets/music/Kevin_MacLeod_-_Vibe_Ace.ogg");
@@ -201,10 +201,9 @@ impl Inputs {
         let want = (sizes.track_seconds * sizes.track_rate as f64).round() as usize;
         let samples: Vec<f64> = song.iter().cycle().take(want).copied().collect();
         qean_io::wav::write_pcm16(&inputs.track, &samples, sizes.track_rate)?;
-        qean_io::fsutil::atomic_write(
-            &inputs.set_json,
-            serde_json::to_string(&inputs.set)?.as_bytes(),
-        )?;
+        let set = serde_json::to_string(&inputs.set)
+            .map_err(|e| crate::Error::invalid(format!("the benchmark's metric set: {e}")))?;
+        qean_io::fsutil::atomic_write(&inputs.set_json, set.as_bytes())?;
         Ok(inputs)
     }
 
@@ -258,7 +257,7 @@ pub fn run_measure(
     backend: &str,
     inputs: &Inputs,
     sizes: &Sizes,
-) -> anyhow::Result<Entry> {
+) -> crate::Result<Entry> {
     reset_peak_rss();
     let mut entry = match id {
         MeasureId::Features => features(inputs, sizes)?,
@@ -272,14 +271,14 @@ pub fn run_measure(
     Ok(entry)
 }
 
-fn features(inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
+fn features(inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
     let opts = FeatureOptions::default();
     let mut times = Vec::new();
     for _ in 0..sizes.feature_repeats.max(1) {
         let t = Instant::now();
         let f = features_for_file(&inputs.track, &opts)?;
         times.push(t.elapsed().as_secs_f64());
-        anyhow::ensure!(f.frames > 0, "no feature frames");
+        crate::error::ensure!(f.frames > 0, "no feature frames");
     }
     Ok(Entry::time(
         MeasureId::Features,
@@ -295,7 +294,7 @@ fn features(inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
     ))
 }
 
-fn metrics(inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
+fn metrics(inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
     let set = &inputs.set;
     let reference: Vec<Sequence> = set.reference.iter().map(|s| s.sequence()).collect();
     let generated: Vec<Sequence> = set.generated.iter().map(|s| s.sequence()).collect();
@@ -308,7 +307,7 @@ fn metrics(inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
         let t = Instant::now();
         let report = evaluate(&generated, &reference, Some(&beats), &cfg)?;
         times.push(t.elapsed().as_secs_f64());
-        anyhow::ensure!(report.fid_k.is_finite(), "FID_k is not finite");
+        crate::error::ensure!(report.fid_k.is_finite(), "FID_k is not finite");
     }
     Ok(Entry::time(
         MeasureId::Metrics,
@@ -326,19 +325,19 @@ fn metrics(inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
     ))
 }
 
-pub(super) fn load_config(path: &Path) -> anyhow::Result<RunConfig> {
+pub(super) fn load_config(path: &Path) -> crate::Result<RunConfig> {
     Ok(RunConfig::load(path, &[])?)
 }
 
-pub(super) fn device(backend: &str) -> anyhow::Result<Device> {
+pub(super) fn device(backend: &str) -> crate::Result<Device> {
     Ok(qean_models::backend::device_named(backend)?)
 }
 
-fn train(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
+fn train(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
     let config = load_config(inputs.config(id))?;
     let device = device(backend)?.autodiff();
     device.seed(0);
-    let mut model = DanceModel::new(&config.model, &device);
+    let mut model = DanceModel::new(&config.model, &device)?;
     let params = model.num_params();
     let mut optim = adam(&config);
     let spec = config.window_spec();
@@ -370,7 +369,7 @@ fn train(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow
             0.0,
         );
         model = next;
-        anyhow::ensure!(loss.is_finite(), "the benchmark loss is not finite");
+        crate::error::ensure!(loss.is_finite(), "the benchmark loss is not finite");
         if k > 0 {
             times.push(t.elapsed().as_secs_f64());
         }
@@ -387,11 +386,11 @@ fn train(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow
     ))
 }
 
-fn sampling(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> anyhow::Result<Entry> {
+fn sampling(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
     let config = load_config(inputs.config(id))?;
     let device = device(backend)?;
     device.seed(0);
-    let model = DanceModel::new(&config.model, &device);
+    let model = DanceModel::new(&config.model, &device)?;
     let params = model.num_params();
     let spec = config.window_spec();
     let layout = config.layout();
@@ -419,7 +418,7 @@ fn sampling(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> any
     let t = Instant::now();
     let out = sample(&model, &device, &requests, &opts(frames), |_, _| {})?;
     let seconds = t.elapsed().as_secs_f64();
-    anyhow::ensure!(
+    crate::error::ensure!(
         out.len() == sizes.sequences,
         "sampler returned {} sequences",
         out.len()
