@@ -233,6 +233,7 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
         );
         assert!(stdout.contains("300 generated frames"), "{run}: {stdout}");
         assert!(stdout.contains("motion: speed per 5 s"), "{run}: {stdout}");
+        assert!(stdout.contains("per 5 s: speed ratio "), "{run}: {stdout}");
         assert!(dir.join("hr3-desert_excerpt.joints.npy").is_file(), "{run}");
     }
 

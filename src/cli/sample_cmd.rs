@@ -225,6 +225,11 @@ fn print_motion(
         Some(r) if generated.len() >= 3 => {
             let (_, e) = qean_eval::motion_energy::motion_energy([generated], r);
             println!("  motion: {}", e.describe(r));
+            println!(
+                "  per 5 s: speed ratio {}, acceleration ratio {} (dances: 0.6–1.6 and ≤ 2)",
+                e.span_speed_ratios(),
+                e.span_accel_ratios()
+            );
             let v = e.verdict();
             if v.froze {
                 tracing::warn!(

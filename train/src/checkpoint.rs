@@ -16,10 +16,8 @@
 
 use std::path::{Path, PathBuf};
 
-use burn::tensor::Device;
 use qean_aistpp::windows::SamplerState;
 use qean_io::error::{Error, Result};
-use qean_models::DanceModel;
 use serde::{Deserialize, Serialize};
 
 use crate::run_dir;
@@ -107,56 +105,6 @@ impl Checkpoint {
             dir: dir.to_path_buf(),
             config,
             state,
-        })
-    }
-
-    /// The FACT or QEAN model with this checkpoint's weights, on `device` (another family's checkpoint is
-    /// an error that says what takes it).
-    pub fn load_model(&self, device: &Device) -> Result<DanceModel> {
-        let other = match self.config.spec() {
-            ModelSpec::FactQean(_) => {
-                return crate::family::load_checkpoint_model(&crate::fact_qean::FactQean, self, device)
-            }
-            ModelSpec::Tsmt(_) => {
-                "a TSMT checkpoint, not FACT or QEAN: this command does not take TSMT runs"
-            }
-            ModelSpec::Inbetween(_) => {
-                "an in-betweener checkpoint, not FACT or QEAN: it does not generate dances from music"
-            }
-            ModelSpec::GenreClf(_) => {
-                "a genre classifier checkpoint, not FACT or QEAN: `qean eval --run` scores it"
-            }
-            ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) => {
-                "a music-to-dance GPT checkpoint, not FACT or QEAN: `qean sample` and `qean eval` take it"
-            }
-            ModelSpec::Vqvae(_) => {
-                "a motion VQ-VAE checkpoint, not FACT or QEAN: it encodes and decodes dances, it does not generate them"
-            }
-        };
-        Err(Error::at(&self.dir, other))
-    }
-
-    /// Every parameter of the checkpoint's model, whatever its family (inspection, export).
-    pub fn named_parameters(
-        &self,
-        device: &Device,
-    ) -> Result<Vec<qean_models::params::NamedParam>> {
-        use crate::family::load_checkpoint_model as load;
-        use qean_models::params::named_parameters as named;
-        Ok(match self.config.spec() {
-            ModelSpec::FactQean(_) => named(&load(&crate::fact_qean::FactQean, self, device)?),
-            ModelSpec::Tsmt(_) => named(&load(&crate::tsmt::TsmtFamily::default(), self, device)?),
-            ModelSpec::Inbetween(_) => {
-                named(&load(&crate::inbetween::InbetweenFamily, self, device)?)
-            }
-            ModelSpec::GenreClf(_) => {
-                named(&load(&crate::genre_clf::GenreClfFamily, self, device)?)
-            }
-            ModelSpec::GptGenre(..) => {
-                named(&load(&crate::genre::GenreFamily::default(), self, device)?)
-            }
-            ModelSpec::Gpt(_) => named(&load(&crate::gpt::GptFamily::default(), self, device)?),
-            ModelSpec::Vqvae(_) => named(&load(&crate::vqvae::VqFamily::default(), self, device)?),
         })
     }
 

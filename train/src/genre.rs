@@ -6,7 +6,6 @@
 //! codebook; reals are the codebook rows of the true tokens under the sequence's own genre.
 
 use std::collections::HashSet;
-use std::f64::consts::PI;
 
 use burn::module::{Module, ParamId};
 use burn::tensor::{Device, Tensor, TensorData};
@@ -30,16 +29,8 @@ pub fn genre_of_config(config: &RunConfig) -> &GenreConfig {
     config.genre_table()
 }
 
-/// `n` standard normal values from a seeded ChaCha stream (Box–Muller, row-major): the noise z.
-pub fn normal_noise(seed: u64, n: usize) -> Vec<f32> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    (0..n)
-        .map(|_| {
-            let (u1, u2): (f64, f64) = (rng.random(), rng.random());
-            ((-2.0 * (1.0 - u1).ln()).sqrt() * (2.0 * PI * u2).cos()) as f32
-        })
-        .collect()
-}
+/// The noise z (defined beside the GPT, which draws it too).
+pub use crate::gpt::normal_noise;
 
 /// The frozen GPT of a genre stage.
 pub struct FrozenGpt {

@@ -155,7 +155,7 @@ pub fn corrupt(tokens: &mut [i64], codes: usize, pkeep: f64, rng: &mut impl Rng)
 
 /// A pseudo text embedding of a genre: a unit vector of `dim` seeded normal values (synthetic text data).
 pub fn genre_embedding(genre: usize, dim: usize) -> Vec<f32> {
-    let v = crate::genre::normal_noise(0x7465_7874 ^ genre as u64, dim);
+    let v = normal_noise(0x7465_7874 ^ genre as u64, dim);
     let norm = v.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-12);
     v.iter().map(|x| x / norm).collect()
 }
@@ -275,6 +275,17 @@ pub struct GptInputs {
     pub tokens: Tensor<2, Int>,
     pub music: Tensor<3>,
     pub targets: Tensor<2, Int>,
+}
+
+/// `n` standard normal values from a seeded ChaCha stream (Box–Muller, row-major): the noise z.
+pub fn normal_noise(seed: u64, n: usize) -> Vec<f32> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    (0..n)
+        .map(|_| {
+            let (u1, u2): (f64, f64) = (rng.random(), rng.random());
+            ((-2.0 * (1.0 - u1).ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()) as f32
+        })
+        .collect()
 }
 
 /// The `[gpt]` table of a GPT run.

@@ -17,6 +17,7 @@ pub mod metrics_log;
 pub mod plot;
 pub mod progress;
 pub mod recipe;
+pub mod registry;
 pub mod resume;
 pub mod run_dir;
 pub mod sweep;
@@ -26,4 +27,5 @@ pub mod vqvae;
 
 pub use checkpoint::Checkpoint;
 pub use family::Family;
-pub use trainer::{train, train_family, ProgressMode, Start, TrainOptions, TrainOutcome};
+pub use registry::train;
+pub use trainer::{train_family, ProgressMode, Start, TrainOptions, TrainOutcome};

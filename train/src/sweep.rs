@@ -7,7 +7,7 @@ use qean_io::error::{Error, Result};
 
 pub use qean_config::sweep::{plan, PlannedRun, SweepConfig, Variant};
 
-use crate::trainer::{self, Start, TrainOptions};
+use crate::trainer::{Start, TrainOptions};
 
 /// How a sweep's run ended this time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -61,7 +61,7 @@ pub fn run(
             label: format!("[{}/{}] {}", k + 1, runs.len(), run.name),
             ..options.clone()
         };
-        let outcome = trainer::train(run.config.clone(), &opts)?;
+        let outcome = crate::registry::train(run.config.clone(), &opts)?;
         let status = if outcome.interrupted {
             RunStatus::Interrupted
         } else if outcome.already_done {

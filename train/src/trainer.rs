@@ -18,7 +18,6 @@ use qean_aistpp::windows::{SequenceSet, WindowSampler};
 use qean_io::error::{Error, Result};
 
 use crate::checkpoint::{self, Best, Checkpoint, TrainerState};
-use crate::fact_qean::FactQean;
 use crate::family::{self, Family, StepContext};
 use crate::metrics_log::{self, MetricsLog, Row};
 pub use crate::progress::ProgressMode;
@@ -26,7 +25,6 @@ use crate::progress::Reporter;
 pub use crate::resume::Start;
 use crate::run_dir::{self, RunLock};
 use qean_config::run::RunConfig;
-use qean_config::ModelSpec;
 
 /// Options of one `train` call.
 #[derive(Debug, Clone)]
@@ -380,23 +378,6 @@ impl<F: Family> Session<'_, F> {
         if let Err(e) = result {
             tracing::warn!("loss plot not updated: {e}");
         }
-    }
-}
-
-/// Trains (or continues) the run in `opts.run_dir` with `config`, whatever its family.
-pub fn train(config: RunConfig, opts: &TrainOptions) -> Result<TrainOutcome> {
-    match config.spec() {
-        ModelSpec::FactQean(_) => train_family(&mut FactQean, config, opts),
-        ModelSpec::Tsmt(_) => train_family(&mut crate::tsmt::TsmtFamily::default(), config, opts),
-        ModelSpec::Inbetween(_) => {
-            train_family(&mut crate::inbetween::InbetweenFamily, config, opts)
-        }
-        ModelSpec::GenreClf(_) => train_family(&mut crate::genre_clf::GenreClfFamily, config, opts),
-        ModelSpec::GptGenre(..) => {
-            train_family(&mut crate::genre::GenreFamily::default(), config, opts)
-        }
-        ModelSpec::Gpt(_) => train_family(&mut crate::gpt::GptFamily::default(), config, opts),
-        ModelSpec::Vqvae(_) => train_family(&mut crate::vqvae::VqFamily::default(), config, opts),
     }
 }
 
