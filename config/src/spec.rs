@@ -87,8 +87,8 @@ impl RunConfig {
 }
 
 impl<'a> ModelSpec<'a> {
-    /// The family's name, the same in every crate: `fact_qean`, `tsmt`, `inbetween`, `vqvae`, `gpt`,
-    /// `gpt_genre`, `genre_clf`.
+    /// The family's name, which is also its module's in every crate (`config/src/<name>.rs`,
+    /// `train/src/<name>.rs`, …): `fact_qean`, `tsmt`, `inbetween`, `vqvae`, `gpt`, `genre`, `genre_clf`.
     pub fn family(self) -> &'static str {
         match self {
             ModelSpec::FactQean(_) => "fact_qean",
@@ -96,7 +96,7 @@ impl<'a> ModelSpec<'a> {
             ModelSpec::Inbetween(_) => "inbetween",
             ModelSpec::Vqvae(_) => "vqvae",
             ModelSpec::Gpt(_) => "gpt",
-            ModelSpec::GptGenre(..) => "gpt_genre",
+            ModelSpec::GptGenre(..) => "genre",
             ModelSpec::GenreClf(_) => "genre_clf",
         }
     }
@@ -125,7 +125,7 @@ mod tests {
             (Arch::Inbetween, "inbetween"),
             (Arch::Vqvae, "vqvae"),
             (Arch::Gpt, "gpt"),
-            (Arch::GptGenre, "gpt_genre"),
+            (Arch::GptGenre, "genre"),
             (Arch::GenreClf, "genre_clf"),
         ];
         for (arch, name) in names {
