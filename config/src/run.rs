@@ -413,12 +413,12 @@ impl RunConfig {
 
     /// The `[inbetween]` table of an in-betweener run (the paper preset for any other run).
     pub fn inbetween(&self) -> InbetweenConfig {
-        self.inbetween.clone().unwrap_or_default()
+        self.inbetween_table().clone()
     }
 
     /// The `[tsmt]` table of a TSMT run (the paper preset for any other: callers match on `spec()`).
     pub fn tsmt(&self) -> TsmtConfig {
-        self.tsmt.clone().unwrap_or_default()
+        self.tsmt_table().clone()
     }
 
     /// Ground-truth frames a generated dance starts with: the model's motion window (FACT, QEAN) or

@@ -86,7 +86,7 @@ impl RunConfig {
     }
 }
 
-impl<'a> ModelSpec<'a> {
+impl ModelSpec<'_> {
     /// The family's name, which is also its module's in every crate (`config/src/<name>.rs`,
     /// `train/src/<name>.rs`, …): `fact_qean`, `tsmt`, `inbetween`, `vqvae`, `gpt`, `genre`, `genre_clf`.
     pub fn family(self) -> &'static str {
@@ -98,14 +98,6 @@ impl<'a> ModelSpec<'a> {
             ModelSpec::Gpt(_) => "gpt",
             ModelSpec::GptGenre(..) => "genre",
             ModelSpec::GenreClf(_) => "genre_clf",
-        }
-    }
-
-    /// The GPT's config for the GPT and for genre control over one (both sample dances from tokens).
-    pub fn gpt(self) -> Option<&'a GptConfig> {
-        match self {
-            ModelSpec::Gpt(g) | ModelSpec::GptGenre(g, _) => Some(g),
-            _ => None,
         }
     }
 }
@@ -132,10 +124,6 @@ mod tests {
             let mut c = RunConfig::default();
             c.model.arch = arch;
             assert_eq!(c.spec().family(), name, "{arch:?}");
-            assert_eq!(
-                c.spec().gpt().is_some(),
-                matches!(arch, Arch::Gpt | Arch::GptGenre)
-            );
         }
         let mut c = RunConfig::default();
         c.model.arch = Arch::Tsmt;

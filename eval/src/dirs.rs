@@ -149,6 +149,19 @@ pub fn evaluate_dirs(req: &DirRequest) -> crate::Result<(EvaluationFile, String)
     Ok((file, table))
 }
 
+/// The beats of music `id` in a map made by [`music_beats`] from `dir`; an ID it left out (no audio file)
+/// is an error naming `dir`. This is the protocol's [`crate::protocol::BeatLookup`] over such a map.
+pub fn beats_of(
+    beats: &HashMap<String, Vec<usize>>,
+    dir: &Path,
+    id: &str,
+) -> crate::Result<Vec<usize>> {
+    beats
+        .get(id)
+        .cloned()
+        .ok_or_else(|| crate::Error::file(dir, format!("no audio for music ID '{id}'")))
+}
+
 /// Music beats of every music key (an AIST++ music ID or an audio file's stem), from
 /// `dir/<key>.(wav|ogg|mp3|flac)`:
 /// Bailando's HPSS-percussive beats (start BPM 120), or column 34 of our 35-D features (start BPM from the

@@ -32,6 +32,15 @@ impl Error {
     pub fn invalid(message: impl Into<String>) -> Self {
         Error::Invalid(message.into())
     }
+
+    /// `checkpoint` is of another family than `what` ("an in-betweener"), which the caller needs.
+    pub(crate) fn not_family(checkpoint: &qean_train::Checkpoint, what: &str) -> Self {
+        Error::Invalid(format!(
+            "{}: not {what} run (model.arch = {:?})",
+            checkpoint.dir.display(),
+            checkpoint.config.model.arch
+        ))
+    }
 }
 
 /// What was being done, put before an error that comes from outside the workspace (a child process, JSON,

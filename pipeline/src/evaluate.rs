@@ -185,12 +185,7 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
         .filter_map(qean_aistpp::names::music_id_of);
     let wav = req.data.join("wav");
     let beats = music_beats(&wav, keys, req.ba_music_beats)?;
-    let lookup = |id: &str| -> qean_eval::Result<Vec<usize>> {
-        beats
-            .get(id)
-            .cloned()
-            .ok_or_else(|| qean_eval::Error::file(&wav, format!("no audio for music ID '{id}'")))
-    };
+    let lookup = |id: &str| qean_eval::dirs::beats_of(&beats, &wav, id);
     let configs = eval_configs(req, seed_frames);
     let mut reports = configs
         .iter()

@@ -236,6 +236,24 @@ pub fn generate(
     Ok(written)
 }
 
+/// [`export_generated`] for a dance held as a [`Motion`] (TSMT, the GPT): written in the 219-D layout.
+pub(crate) fn export_motion(
+    out: &Path,
+    song: &Song,
+    motion: &Motion,
+    seed_frames: usize,
+    render: bool,
+) -> Result<Generated> {
+    export_generated(
+        out,
+        song,
+        (&motion.to_layout(Layout::L219), Layout::L219),
+        motion.joints(FkRoot::Smpl),
+        seed_frames,
+        render,
+    )
+}
+
 /// Every export of one generated dance (`vectors` in `layout`, seed frames first) to `out`, named after
 /// the song, and its record; `joints` are the dance's joint positions (SMPL root). Each family's sampler
 /// ends here.

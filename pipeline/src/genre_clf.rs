@@ -32,11 +32,7 @@ impl TrainedClf {
             checkpoint.config.spec(),
             qean_config::ModelSpec::GenreClf(_)
         ) {
-            return Err(Error::Invalid(format!(
-                "{}: not a genre classifier run (model.arch = {:?})",
-                checkpoint.dir.display(),
-                checkpoint.config.model.arch
-            )));
+            return Err(Error::not_family(&checkpoint, "a genre classifier"));
         }
         let model = qean_train::family::load_checkpoint_model(
             &GenreClfFamily,

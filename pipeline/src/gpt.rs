@@ -13,7 +13,7 @@ use qean_models::control::gpt::{music_token_dim, Gpt};
 use qean_models::vqvae::VqVae;
 use qean_motion::fk::FkRoot;
 use qean_motion::ik::motion_from_joints;
-use qean_motion::motion::{Layout, Motion};
+use qean_motion::motion::Motion;
 use qean_motion::pos72::pos72_to_joints;
 use qean_train::checkpoint::Checkpoint;
 use qean_train::genre::{genre_of_config, normal_noise, GenreFamily};
@@ -21,7 +21,7 @@ use qean_train::gpt::{gpt_of, music_tokens, FrozenVq, GptFamily};
 use qean_train::vqvae::{denormalise, pos72_options, vq_of};
 use rand::{Rng, SeedableRng};
 
-use crate::generate::{export_generated, GenerateOptions, Generated, Song};
+use crate::generate::{export_motion, GenerateOptions, Generated, Song};
 
 /// How each token is picked (SPEC §13.8 "Picking").
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -386,14 +386,7 @@ pub fn generate(
                 opts.frames
             );
         }
-        written.push(export_generated(
-            out,
-            song,
-            (&motion.to_layout(Layout::L219), Layout::L219),
-            motion.joints(FkRoot::Smpl),
-            seed.frames,
-            opts.render,
-        )?);
+        written.push(export_motion(out, song, &motion, seed.frames, opts.render)?);
     }
     Ok(written)
 }

@@ -30,11 +30,7 @@ impl Trained {
             checkpoint.config.spec(),
             qean_config::ModelSpec::Inbetween(_)
         ) {
-            return Err(Error::Invalid(format!(
-                "{}: not an in-betweener run (model.arch = {:?})",
-                checkpoint.dir.display(),
-                checkpoint.config.model.arch
-            )));
+            return Err(Error::not_family(&checkpoint, "an in-betweener"));
         }
         let config = checkpoint.config.inbetween();
         let model = qean_train::family::load_checkpoint_model(

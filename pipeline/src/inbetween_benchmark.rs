@@ -390,12 +390,7 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
             .filter_map(|n| qean_aistpp::names::music_id_of(n)),
         MusicBeatSource::Bailando,
     )?;
-    let lookup = |id: &str| -> qean_eval::Result<Vec<usize>> {
-        beats
-            .get(id)
-            .cloned()
-            .ok_or_else(|| qean_eval::Error::file(&wav, format!("no audio for music ID '{id}'")))
-    };
+    let lookup = |id: &str| qean_eval::dirs::beats_of(&beats, &wav, id);
     let trained = req
         .inbetweeners
         .iter()

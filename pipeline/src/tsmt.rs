@@ -13,12 +13,12 @@ use qean_models::tsmt::sample::{generate as sample_tokens, TsmtAudio, TsmtSampli
 use qean_models::tsmt::{coords_to_joints, pose_coords, Bins};
 use qean_motion::fk::FkRoot;
 use qean_motion::ik::motion_from_joints;
-use qean_motion::motion::{Layout, Motion};
+use qean_motion::motion::Motion;
 use qean_motion::skeleton::NUM_JOINTS;
 use qean_train::checkpoint::Checkpoint;
 use qean_train::tsmt::TsmtFamily;
 
-use crate::generate::{export_generated, GenerateOptions, Generated, Song};
+use crate::generate::{export_motion, GenerateOptions, Generated, Song};
 
 /// The sampling settings of a TSMT run with `opts`' overrides.
 pub fn sampling(t: &TsmtConfig, opts: &GenerateOptions) -> TsmtSampling {
@@ -215,14 +215,7 @@ pub fn generate(
     )?;
     let mut written = Vec::new();
     for (song, motion) in songs.iter().zip(&motions) {
-        written.push(export_generated(
-            out,
-            song,
-            (&motion.to_layout(Layout::L219), Layout::L219),
-            motion.joints(FkRoot::Smpl),
-            seed.frames,
-            opts.render,
-        )?);
+        written.push(export_motion(out, song, motion, seed.frames, opts.render)?);
     }
     Ok(written)
 }

@@ -34,11 +34,7 @@ impl TrainedVq {
     pub fn load(run: &std::path::Path, checkpoint: Option<&str>) -> Result<TrainedVq> {
         let checkpoint = qean_train::checkpoint::resolve_in_run(run, checkpoint)?;
         if !matches!(checkpoint.config.spec(), qean_config::ModelSpec::Vqvae(_)) {
-            return Err(Error::Invalid(format!(
-                "{}: not a VQ-VAE run (model.arch = {:?})",
-                checkpoint.dir.display(),
-                checkpoint.config.model.arch
-            )));
+            return Err(Error::not_family(&checkpoint, "a VQ-VAE"));
         }
         let model = qean_train::family::load_checkpoint_model(
             &VqFamily::default(),
@@ -152,12 +148,7 @@ pub fn evaluate_vq(req: &RunEvalRequest) -> Result<(VqEvaluation, String)> {
             .filter_map(|n| qean_aistpp::names::music_id_of(n)),
         req.ba_music_beats,
     )?;
-    let lookup = |id: &str| -> qean_eval::Result<Vec<usize>> {
-        beats
-            .get(id)
-            .cloned()
-            .ok_or_else(|| qean_eval::Error::file(&wav, format!("no audio for music ID '{id}'")))
-    };
+    let lookup = |id: &str| qean_eval::dirs::beats_of(&beats, &wav, id);
     let metrics = qean_eval::protocol::evaluate(&decoded, &reference, Some(&lookup), &cfg)?;
     let report = VqEvaluation {
         checkpoint: ck.dir.clone(),

@@ -76,11 +76,7 @@ pub fn run(
     ck: &Checkpoint,
 ) -> crate::Result<InbetweenDemo> {
     let ds = qean_aistpp::dataset::Dataset::open(data)?;
-    let name = ds
-        .split(qean_aistpp::dataset::Split::Test)
-        .into_iter()
-        .next()
-        .context("the demo dataset has no test sequence")?;
+    let name = super::first_test(&ds)?;
     let motion_path = ds.motion_path(&name);
     let motion = read_motion(&motion_path)?;
     let dir = out.join("inbetween");

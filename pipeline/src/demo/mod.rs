@@ -563,11 +563,7 @@ fn dance(
     )?;
     // Seed: the opening of the first test sequence (a pose the models know, unlike a T-pose).
     let ds = qean_aistpp::dataset::Dataset::open(data)?;
-    let first = ds
-        .split(qean_aistpp::dataset::Split::Test)
-        .into_iter()
-        .next()
-        .context("the demo dataset has no test sequence")?;
+    let first = first_test(&ds)?;
     let seed = generate::seed_motion(
         &SeedSource::Sequence {
             data: data.to_path_buf(),
@@ -618,17 +614,22 @@ fn dance(
     ))
 }
 
+/// The demo dataset's first test sequence: the held-out dances' seed, the ground truth beside them, the
+/// dance the in-betweening section rebuilds.
+fn first_test(ds: &qean_aistpp::dataset::Dataset) -> crate::Result<String> {
+    ds.split(qean_aistpp::dataset::Split::Test)
+        .into_iter()
+        .next()
+        .context("the demo dataset has no test sequence")
+}
+
 /// `dances/compare.html`: the first test sequence's ground truth (to its own music) beside every model's
 /// dance to the held-out song, with that song playing.
 fn compare_page(out: &Path, data: &Path, models: &[ModelResult]) -> crate::Result<PathBuf> {
     use crate::view::{write_page, PageDance, PageMusic};
     let root = qean_motion::FkRoot::Smpl;
     let ds = qean_aistpp::dataset::Dataset::open(data)?;
-    let first = ds
-        .split(qean_aistpp::dataset::Split::Test)
-        .into_iter()
-        .next()
-        .context("the demo dataset has no test sequence")?;
+    let first = first_test(&ds)?;
     let gt = qean_motion::motion::Motion::read_pkl(&ds.motion_path(&first))?;
     let mut dances = vec![PageDance {
         label: format!("ground truth ({first}, to its own music)"),
