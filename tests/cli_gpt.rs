@@ -56,7 +56,7 @@ fn train_small_vq(data: &Path, run: &Path, steps: u64) {
 }
 
 fn named(checkpoint: &Path, prefix: &str) -> Vec<qean_models::params::NamedParam> {
-    let ck = qean_train::checkpoint::resolve(checkpoint).unwrap();
+    let ck = qean_checkpoint::checkpoint::resolve(checkpoint).unwrap();
     ck.named_parameters(&burn::tensor::Device::flex())
         .unwrap()
         .into_iter()

@@ -127,7 +127,7 @@ fn lr_in_metrics_is_exactly_the_configured_step_function() {
     let out = run_ok(qean().arg("export").arg(&run).arg("--out").arg(&st));
     assert!(out.contains("params_hash: "), "{out}");
     let (tensors, meta) = qean_models::params::read_safetensors(&st).unwrap();
-    let ck = qean_train::checkpoint::resolve(&run).unwrap();
+    let ck = qean_checkpoint::checkpoint::resolve(&run).unwrap();
     let model = ck.load_model(&burn::tensor::Device::flex()).unwrap();
     let mut want = qean_models::params::named_parameters(&model);
     want.sort_by(|a, b| a.name.cmp(&b.name));

@@ -12,12 +12,14 @@ use burn::nn::{Linear, LinearConfig};
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::windows::{Batch, SequenceSet, AUDIO_DIM};
+use qean_checkpoint::checkpoint::{self, Checkpoint};
+use qean_checkpoint::weights::{read_family_state, FAMILY_STATE_FILE};
+use qean_checkpoint::ProgressMode;
 use qean_config::RunConfig;
 use qean_models::autoregress::{SampleOptions, SampleRequest};
 use qean_models::model::DanceGenerator;
-use qean_train::checkpoint::{self, Checkpoint};
-use qean_train::family::{self, read_family_state, Family, StepContext};
-use qean_train::{train_family, ProgressMode, Start, TrainOptions};
+use qean_train::family::{self, Family, StepContext};
+use qean_train::{train_family, Start, TrainOptions};
 
 #[derive(Module, Debug)]
 struct Toy {
@@ -190,7 +192,7 @@ fn a_toy_family_trains_resumes_exactly_and_samples_through_the_trainer() {
     assert_eq!((out.step, out.interrupted), (6, false));
     assert!(out.val_loss.is_some_and(f64::is_finite));
     let a = final_checkpoint(&straight);
-    let state = std::fs::read_to_string(a.dir.join(family::FAMILY_STATE_FILE)).unwrap();
+    let state = std::fs::read_to_string(a.dir.join(FAMILY_STATE_FILE)).unwrap();
     assert!(state.contains("\"train_sequences\""), "{state}");
 
     // Stopped from inside after the 4th update, then resumed.
@@ -244,7 +246,7 @@ fn a_toy_family_trains_resumes_exactly_and_samples_through_the_trainer() {
     let name = &ds.split(Split::Test)[0];
     let motion = qean_motion::Motion::read_pkl(&ds.motion_path(name)).unwrap();
     let music = qean_aistpp::names::music_id_of(name).unwrap();
-    qean_train::data::ensure_features(&ds, std::slice::from_ref(name)).unwrap();
+    qean_checkpoint::features::ensure_features(&ds, std::slice::from_ref(name)).unwrap();
     let (audio, _) = qean_aistpp::feature_cache::load(&ds, &music).unwrap();
     let (layout, spec) = (config.layout(), config.window_spec());
     let request = SampleRequest {

@@ -112,9 +112,29 @@ pub fn tempo_prior(music_id: &str) -> Option<f64> {
     })
 }
 
+/// The genre index of an AIST++ name (`gBR_…` → 0), if it has one.
+pub fn genre_of(name: &str) -> Option<usize> {
+    genre_index(name.strip_prefix('g')?)
+}
+
+/// The genre whose two-letter AIST++ code starts `code` (`BR…` → 0).
+pub fn genre_index(code: &str) -> Option<usize> {
+    let code = code.get(..2)?;
+    GENRES.iter().position(|g| *g == code)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn genre_codes_in_order() {
+        assert_eq!(genre_of("gBR_sBM_cAll_d04_mBR0_ch01"), Some(0));
+        assert_eq!(genre_of("gJB_sFM_cAll_d09_mJB5_ch10"), Some(9));
+        assert_eq!(genre_of("gKR_x"), Some(7));
+        assert_eq!(genre_of("softcat"), None);
+        assert_eq!(genre_index("KR"), Some(7));
+    }
 
     #[test]
     fn start_bpm_from_names() {

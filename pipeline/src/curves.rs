@@ -9,7 +9,7 @@ use crate::evaluate::{evaluate_run, RunEvalRequest};
 /// Evaluates the checkpoints of `run` (only `steps`, when given) that lack a report made for
 /// `template.max_frames` frames. `template` gives every setting but the run and the checkpoint.
 pub fn evaluate_missing(run: &Path, steps: &[u64], template: &RunEvalRequest) -> crate::Result<()> {
-    for (step, dir) in qean_train::run_dir::list_checkpoints(run)? {
+    for (step, dir) in qean_checkpoint::run_dir::list_checkpoints(run)? {
         if !steps.is_empty() && !steps.contains(&step) {
             continue;
         }

@@ -272,7 +272,7 @@ pub fn anchor_windows(
 fn model_music(trained: Option<&Trained>, req: &EditRequest) -> Result<Option<Vec<f32>>> {
     Ok(match (trained, &req.music) {
         (Some(t), music) if t.config.variant.drums() => {
-            Some(qean_train::inbetween::drums_features(
+            Some(qean_checkpoint::inbetween::drums_features(
                 music.as_deref(),
                 req.stems.as_deref(),
                 t.config.drums,

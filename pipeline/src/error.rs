@@ -34,12 +34,8 @@ impl Error {
     }
 
     /// `checkpoint` is of another family than `what` ("an in-betweener"), which the caller needs.
-    pub(crate) fn not_family(checkpoint: &qean_train::Checkpoint, what: &str) -> Self {
-        Error::Invalid(format!(
-            "{}: not {what} run (model.arch = {:?})",
-            checkpoint.dir.display(),
-            checkpoint.config.model.arch
-        ))
+    pub(crate) fn not_family(checkpoint: &qean_checkpoint::Checkpoint, what: &str) -> Self {
+        checkpoint.not_family(what).into()
     }
 }
 
@@ -75,12 +71,4 @@ macro_rules! bail {
     };
 }
 
-/// [`bail!`] unless the condition holds.
-macro_rules! ensure {
-    ($cond:expr, $($arg:tt)*) => {
-        if !$cond {
-            $crate::error::bail!($($arg)*);
-        }
-    };
-}
-pub(crate) use {bail, ensure};
+pub(crate) use bail;

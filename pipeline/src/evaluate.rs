@@ -133,7 +133,7 @@ pub struct RunEvaluation {
 /// genre control's control test (with the judge `classifier`), or the dance metrics of the rest; returns
 /// the markdown to print.
 pub fn evaluate_family(req: &RunEvalRequest, classifier: Option<&Path>) -> Result<String> {
-    let ck = qean_train::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
+    let ck = qean_checkpoint::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
     match (ck.config.spec(), classifier) {
         (ModelSpec::Vqvae(_), _) => Ok(crate::vqvae::evaluate_vq(req)?.1),
         (ModelSpec::GenreClf(_), _) => Ok(crate::genre_clf::evaluate_clf(req)?.1),
@@ -144,7 +144,7 @@ pub fn evaluate_family(req: &RunEvalRequest, classifier: Option<&Path>) -> Resul
 
 /// Runs checkpoint mode.
 pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
-    let ck = qean_train::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
+    let ck = qean_checkpoint::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
     let out_dir = req
         .run
         .join("eval")
@@ -355,7 +355,7 @@ pub(crate) fn protocol_sequences(ds: &Dataset) -> Result<Vec<String>> {
             ),
         )));
     }
-    qean_train::data::ensure_features(ds, &names)?;
+    qean_checkpoint::features::ensure_features(ds, &names)?;
     Ok(names)
 }
 
@@ -426,13 +426,13 @@ fn sample_options(req: &RunEvalRequest, config: &qean_config::RunConfig) -> Resu
 /// with `draw_seed`.
 fn sample_dances(
     req: &RunEvalRequest,
-    ck: &qean_train::Checkpoint,
+    ck: &qean_checkpoint::Checkpoint,
     (requests, genres): (&[SampleRequest], &[Option<usize>]),
     opts: &SampleOptions,
     draw_seed: u64,
 ) -> Result<Vec<Vec<f32>>> {
     let backend = req.sampling.backend.unwrap_or(ck.config.train.backend);
-    let pb = qean_train::progress::bar(
+    let pb = qean_checkpoint::progress::bar(
         req.max_frames as u64,
         &format!("sampling {} sequences", requests.len()),
         "frames",
@@ -461,7 +461,7 @@ fn sample_dances(
 /// TSMT's rollouts of the requests (seed motions and 35-D music), as vectors in `opts.layout`.
 fn sample_tsmt(
     req: &RunEvalRequest,
-    ck: &qean_train::Checkpoint,
+    ck: &qean_checkpoint::Checkpoint,
     requests: &[SampleRequest],
     opts: &SampleOptions,
     draw_seed: u64,
@@ -494,14 +494,14 @@ fn sample_tsmt(
 /// sampling overrides say otherwise).
 fn sample_gpt(
     req: &RunEvalRequest,
-    ck: &qean_train::Checkpoint,
+    ck: &qean_checkpoint::Checkpoint,
     (requests, genres): (&[SampleRequest], &[Option<usize>]),
     opts: &SampleOptions,
     draw_seed: u64,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Vec<Vec<f32>>> {
     let dim = qean_aistpp::windows::AUDIO_DIM;
-    let g = qean_train::gpt::gpt_of(&ck.config);
+    let g = ck.config.gpt_table();
     let mut run = crate::gpt::GptRun::load(ck)?;
     run.seam_frames = opts.seam_frames;
     let picking = crate::gpt::Picking::of(g, &req.sampling.picking(), draw_seed);
@@ -543,7 +543,7 @@ fn sample_gpt(
 /// named like the main set.
 fn more_rollouts(
     req: &RunEvalRequest,
-    ck: &qean_train::Checkpoint,
+    ck: &qean_checkpoint::Checkpoint,
     requests: &[SampleRequest],
     opts: &SampleOptions,
     main: &[Sequence],
@@ -693,7 +693,7 @@ fn sampler_label(req: &RunEvalRequest, config: &qean_config::RunConfig) -> Optio
         ));
     }
     if config.gpt.is_some() {
-        let g = qean_train::gpt::gpt_of(config);
+        let g = config.gpt_table();
         let p = crate::gpt::Picking::of(g, &s.picking(), s.sample_seed);
         return Some(format!(
             "GPT picking top-k {}, temperature {}, repetition penalty {} over {} tokens, draw seed {}",

@@ -14,8 +14,8 @@ use qean_motion::fk::FkRoot;
 use qean_motion::motion::{Layout, Motion};
 use qean_render::export::{export_dance, ExportOptions, ExportPaths};
 
+use qean_checkpoint::checkpoint::Checkpoint;
 use qean_eval::run_report::SeedStart;
-use qean_train::checkpoint::Checkpoint;
 
 /// Where the seed motion comes from.
 #[derive(Debug, Clone, PartialEq)]

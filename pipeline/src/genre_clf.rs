@@ -6,13 +6,15 @@ use std::path::{Path, PathBuf};
 
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_aistpp::dataset::Dataset;
+use qean_aistpp::names::genre_of;
 use qean_aistpp::names::GENRES;
+use qean_checkpoint::checkpoint::Checkpoint;
+use qean_checkpoint::genre_clf::pos72_rows;
+use qean_checkpoint::FamilyModel;
 use qean_config::genre_clf::GenreClfConfig;
 use qean_models::control::genre_clf::GenreClassifier;
 use qean_motion::motion::Motion;
 use qean_motion::pos72::POS72;
-use qean_train::checkpoint::Checkpoint;
-use qean_train::genre_clf::{clf_of, genre_of, pos72_rows, GenreClfFamily};
 use serde::Serialize;
 
 use crate::evaluate::RunEvalRequest;
@@ -27,20 +29,12 @@ pub struct TrainedClf {
 
 impl TrainedClf {
     pub fn load(run: &Path, checkpoint: Option<&str>) -> Result<TrainedClf> {
-        let checkpoint = qean_train::checkpoint::resolve_in_run(run, checkpoint)?;
-        if !matches!(
-            checkpoint.config.spec(),
-            qean_config::ModelSpec::GenreClf(_)
-        ) {
+        let checkpoint = qean_checkpoint::checkpoint::resolve_in_run(run, checkpoint)?;
+        let FamilyModel::GenreClf(model) = checkpoint.load_family(&Device::flex())? else {
             return Err(Error::not_family(&checkpoint, "a genre classifier"));
-        }
-        let model = qean_train::family::load_checkpoint_model(
-            &GenreClfFamily,
-            &checkpoint,
-            &Device::flex(),
-        )?;
+        };
         Ok(TrainedClf {
-            config: clf_of(&checkpoint.config).clone(),
+            config: checkpoint.config.genre_clf_table().clone(),
             model,
             checkpoint,
         })

@@ -7,12 +7,12 @@
 use std::path::{Path, PathBuf};
 
 use qean_aistpp::dataset::Dataset;
+use qean_aistpp::names::genre_of;
 use qean_aistpp::names::GENRES;
 use qean_eval::config::EvalConfig;
 use qean_eval::positions::Sequence;
 use qean_eval::run_report::{frames_of, pairings, Protocol};
 use qean_motion::motion::Motion;
-use qean_train::genre_clf::genre_of;
 use serde::Serialize;
 
 use crate::evaluate::RunEvalRequest;
@@ -76,12 +76,12 @@ pub struct ControlReport {
 
 /// The genre of a music ID (`mBR0` → BR).
 pub(crate) fn music_genre(music: &str) -> Option<usize> {
-    qean_train::genre_clf::genre_index(music.strip_prefix('m')?)
+    qean_aistpp::names::genre_index(music.strip_prefix('m')?)
 }
 
 /// Runs the control test; writes the report beside the run's evaluations.
 pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlReport, String)> {
-    let ck = qean_train::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
+    let ck = qean_checkpoint::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
     if !matches!(ck.config.spec(), qean_config::ModelSpec::GptGenre(..)) {
         return Err(Error::Invalid(format!(
             "{}: --classifier runs the genre control test, which needs a genre-control run (model.arch = \"gpt_genre\"), not {:?}",
@@ -100,13 +100,13 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
     let names = crate::evaluate::protocol_sequences(&ds)?;
     let pairs = pairings(&names, Protocol::Paired);
     let (requests, _) = crate::evaluate::sample_requests(&ds, &pairs, &ck.config, req.seed_start)?;
-    let g = qean_train::gpt::gpt_of(&ck.config);
+    let g = ck.config.gpt_table();
     let run = GptRun::load(&ck)?;
     let picking = Picking::of(g, &req.sampling.picking(), req.sampling.sample_seed);
     let layout = ck.config.layout();
     let dim = qean_aistpp::windows::AUDIO_DIM;
     let total = requests.len() * GENRES.len();
-    let pb = qean_train::progress::bar(total as u64, "genre control test", "dances");
+    let pb = qean_checkpoint::progress::bar(total as u64, "genre control test", "dances");
     let mut confusion = vec![vec![0usize; GENRES.len()]; GENRES.len()];
     let (mut own, mut other) = ((0, 0), (0, 0));
     let mut generated: Vec<Vec<Sequence>> = vec![Vec::new(); GENRES.len()];

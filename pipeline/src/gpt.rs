@@ -6,6 +6,10 @@ use std::path::Path;
 
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use qean_aistpp::names::GENRES;
+use qean_checkpoint::checkpoint::Checkpoint;
+use qean_checkpoint::gpt::{music_tokens, normal_noise, FrozenVq};
+use qean_checkpoint::vqvae::{denormalise, pos72_options};
+use qean_checkpoint::FamilyModel;
 use qean_config::gpt::GptConfig;
 use qean_io::error::{Error, Result};
 use qean_models::control::genre::GenreModule;
@@ -15,10 +19,6 @@ use qean_motion::fk::FkRoot;
 use qean_motion::ik::motion_from_joints;
 use qean_motion::motion::Motion;
 use qean_motion::pos72::pos72_to_joints;
-use qean_train::checkpoint::Checkpoint;
-use qean_train::genre::{genre_of_config, normal_noise, GenreFamily};
-use qean_train::gpt::{gpt_of, music_tokens, FrozenVq, GptFamily};
-use qean_train::vqvae::{denormalise, pos72_options, vq_of};
 use rand::{Rng, SeedableRng};
 
 use crate::generate::{export_motion, GenerateOptions, Generated, Song};
@@ -218,7 +218,7 @@ pub fn sample_tokens(
 /// the root integrated and continued from the seed's last frame, the body eased out of the seed's last pose
 /// over `seam_frames` frames), rotations by IK.
 pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize], seam_frames: usize) -> Motion {
-    let c = vq_of(&vq.checkpoint.config);
+    let c = vq.checkpoint.config.vq_table();
     let n = tokens.len();
     let mut rows = VqVae::host_rows(&vq.model.decode_tokens(tokens, 1, n));
     denormalise(&mut rows, c);
@@ -263,23 +263,15 @@ pub struct GptRun {
 
 impl GptRun {
     pub fn load(ck: &Checkpoint) -> Result<GptRun> {
-        let vq = FrozenVq::load(gpt_of(&ck.config))?;
-        let device = Device::flex();
-        if let qean_config::ModelSpec::GptGenre(..) = ck.config.spec() {
-            let m =
-                qean_train::family::load_checkpoint_model(&GenreFamily::default(), ck, &device)?;
-            let z_dim = genre_of_config(&ck.config).z_dim;
-            return Ok(GptRun {
-                model: m.gpt,
-                genre: Some((m.genre, z_dim)),
-                vq,
-                seam_frames: ck.config.recipe.seam_frames,
-            });
-        }
-        let model = qean_train::family::load_checkpoint_model(&GptFamily::default(), ck, &device)?;
+        let vq = FrozenVq::load(ck.config.gpt_table())?;
+        let (model, genre) = match ck.load_family(&Device::flex())? {
+            FamilyModel::Gpt(model) => (model, None),
+            FamilyModel::GptGenre(m) => (m.gpt, Some((m.genre, ck.config.genre_table().z_dim))),
+            _ => return Err(ck.not_family("a music-to-dance GPT")),
+        };
         Ok(GptRun {
             model,
-            genre: None,
+            genre,
             vq,
             seam_frames: ck.config.recipe.seam_frames,
         })
@@ -345,7 +337,7 @@ pub fn generate(
     out: &Path,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Vec<Generated>> {
-    let g = gpt_of(&ck.config);
+    let g = ck.config.gpt_table();
     let mut run = GptRun::load(ck)?;
     run.seam_frames = opts.seam_frames;
     let picking = Picking::of(

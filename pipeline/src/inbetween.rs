@@ -4,14 +4,15 @@
 use std::path::Path;
 
 use burn::tensor::{Device, Tensor, TensorData};
+use qean_checkpoint::checkpoint::{resolve, Checkpoint};
+use qean_checkpoint::inbetween::base_225;
+use qean_checkpoint::FamilyModel;
 use qean_config::inbetween::{InbetweenConfig, Taper, Variant};
 use qean_models::inbetween::{
     genre_index, genre_one_hot, genres, music_columns, taper_weights, Conditioning, Inbetweener,
     MOTION_DIM, MUSIC_DIM,
 };
 use qean_motion::{Layout, Motion};
-use qean_train::checkpoint::{resolve, Checkpoint};
-use qean_train::inbetween::{base_225, InbetweenFamily};
 
 use crate::{Error, Result};
 
@@ -26,18 +27,10 @@ impl Trained {
     /// The newest checkpoint of a run (or a checkpoint directory), which must be an in-betweener.
     pub fn load(run: &Path) -> Result<Trained> {
         let checkpoint = resolve(run)?;
-        if !matches!(
-            checkpoint.config.spec(),
-            qean_config::ModelSpec::Inbetween(_)
-        ) {
+        let FamilyModel::Inbetween(model) = checkpoint.load_family(&Device::flex())? else {
             return Err(Error::not_family(&checkpoint, "an in-betweener"));
-        }
+        };
         let config = checkpoint.config.inbetween();
-        let model = qean_train::family::load_checkpoint_model(
-            &InbetweenFamily,
-            &checkpoint,
-            &Device::flex(),
-        )?;
         Ok(Trained {
             model,
             config,

@@ -233,12 +233,12 @@ fn test_features(
     names: &[String],
     drums: Option<qean_config::inbetween::DrumSource>,
 ) -> Result<HashMap<String, Vec<f32>>> {
-    qean_train::data::ensure_features(ds, names)?;
+    qean_checkpoint::features::ensure_features(ds, names)?;
     let mut out = HashMap::new();
     for id in Dataset::music_ids(names) {
         let data = match drums {
             None => qean_aistpp::feature_cache::load(ds, &id)?.0,
-            Some(source) => qean_train::inbetween::drums_features(
+            Some(source) => qean_checkpoint::inbetween::drums_features(
                 ds.audio_path(&id).as_deref(),
                 Some(&ds.root.join("stems").join(&id)),
                 source,

@@ -2,9 +2,10 @@
 //! turns a checkpoint and songs into dances and their exports; [`evaluate`] is checkpoint mode of the
 //! metrics (sample the test + val split, score it with `qean-eval`, write `R/eval/step-N/report.{json,md}`);
 //! [`curves`] evaluates the checkpoints a curve still lacks; [`demo`] is `qean demo` (every stage, its tables
-//! and verdicts) and [`bench`] is `qean bench`. Every entry point takes a typed request.
+//! and verdicts; it trains through child `qean train` processes). Every entry point takes a typed request.
+//! It reads runs through qean-checkpoint and never depends on the trainer (`qean bench`, which times the
+//! trainer's update, is the qean-bench crate).
 
-pub mod bench;
 pub mod curves;
 pub mod demo;
 pub mod edit;

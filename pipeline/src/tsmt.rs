@@ -6,6 +6,8 @@
 use std::path::Path;
 
 use qean_audio::delta::tsmt_audio;
+use qean_checkpoint::checkpoint::Checkpoint;
+use qean_checkpoint::FamilyModel;
 use qean_config::tsmt::{TsmtConfig, TsmtDecode};
 use qean_io::error::{Error, Result};
 use qean_models::tsmt::coarse::{upsample, Grid};
@@ -15,8 +17,6 @@ use qean_motion::fk::FkRoot;
 use qean_motion::ik::motion_from_joints;
 use qean_motion::motion::Motion;
 use qean_motion::skeleton::NUM_JOINTS;
-use qean_train::checkpoint::Checkpoint;
-use qean_train::tsmt::TsmtFamily;
 
 use crate::generate::{export_motion, GenerateOptions, Generated, Song};
 
@@ -119,7 +119,9 @@ pub fn sample_motions(
     let t = ck.config.tsmt();
     let bins = run_bins(ck)?;
     let device = qean_models::backend::device(r.backend).map_err(|e| Error::msg(e.to_string()))?;
-    let model = qean_train::family::load_checkpoint_model(&TsmtFamily::default(), ck, &device)?;
+    let FamilyModel::Tsmt(model) = ck.load_family(&device)? else {
+        return Err(ck.not_family("a TSMT"));
+    };
     let n = t.coords();
     // The model's grid: every frame, or every `frame_step`-th ending on the seed's last frame.
     let seed_frames = r.seeds.first().map_or(1, |s| s.frames);

@@ -7,6 +7,9 @@ use std::time::Instant;
 
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_aistpp::dataset::Dataset;
+use qean_checkpoint::checkpoint::Checkpoint;
+use qean_checkpoint::vqvae::{denormalise, motion_pos72, normalise, pos72_options};
+use qean_checkpoint::FamilyModel;
 use qean_eval::config::{EvalConfig, MetricsMode};
 use qean_eval::positions::Sequence;
 use qean_eval::report::MetricsReport;
@@ -16,8 +19,6 @@ use qean_models::vqvae::VqVae;
 use qean_motion::motion::Motion;
 use qean_motion::pos72::{pos72_to_joints, POS72};
 use qean_motion::FkRoot;
-use qean_train::checkpoint::Checkpoint;
-use qean_train::vqvae::{denormalise, motion_pos72, normalise, pos72_options, vq_of, VqFamily};
 use serde::Serialize;
 
 use crate::evaluate::RunEvalRequest;
@@ -32,22 +33,17 @@ pub struct TrainedVq {
 impl TrainedVq {
     /// The newest checkpoint of a run (or a checkpoint directory), which must be a VQ-VAE.
     pub fn load(run: &std::path::Path, checkpoint: Option<&str>) -> Result<TrainedVq> {
-        let checkpoint = qean_train::checkpoint::resolve_in_run(run, checkpoint)?;
-        if !matches!(checkpoint.config.spec(), qean_config::ModelSpec::Vqvae(_)) {
+        let checkpoint = qean_checkpoint::checkpoint::resolve_in_run(run, checkpoint)?;
+        let FamilyModel::Vqvae(model) = checkpoint.load_family(&Device::flex())? else {
             return Err(Error::not_family(&checkpoint, "a VQ-VAE"));
-        }
-        let model = qean_train::family::load_checkpoint_model(
-            &VqFamily::default(),
-            &checkpoint,
-            &Device::flex(),
-        )?;
+        };
         Ok(TrainedVq { model, checkpoint })
     }
 
     /// A motion's tokens (its frames cropped to a multiple of the rate) and its reconstruction as joints
     /// (the root integrated from the motion's own J_0(0)).
     pub fn round_trip(&self, motion: &Motion, root: FkRoot) -> Result<(Vec<usize>, Vec<[f64; 3]>)> {
-        let c = vq_of(&self.checkpoint.config);
+        let c = self.checkpoint.config.vq_table();
         let rate = self.model.rate();
         let frames = motion.frames / rate * rate;
         if frames == 0 {

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use qean_pipeline::bench::{self, BenchOptions, MeasureId, Peers};
+use qean_bench::{self as bench, BenchOptions, MeasureId, Peers};
 
 /// Measure the speed and peak memory of every stage: 35-D features of a 60 s track, the five
 /// metrics on 40 generated vs 1363 reference sequences, one FACT training step (batch 16, tiny and

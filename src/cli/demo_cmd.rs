@@ -4,8 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
+use qean_checkpoint::ProgressMode;
 use qean_pipeline::demo::{self, Budget, DemoOptions};
-use qean_train::ProgressMode;
 
 /// Run everything on embedded data, with nothing to download: a synthetic AIST++-format dataset whose
 /// music includes two real recordings; tiny FACT and full-QEAN, a small TSMT (Li et al.), a tiny VQ-VAE +

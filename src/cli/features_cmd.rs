@@ -68,7 +68,7 @@ fn options(name: &str, a: &FeaturesArgs) -> FeatureOptions {
 }
 
 fn bar(n: usize) -> ProgressBar {
-    qean_train::progress::bar(n as u64, "", "")
+    qean_checkpoint::progress::bar(n as u64, "", "")
 }
 
 pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {

@@ -73,7 +73,11 @@ fn run_data(command: Command) -> anyhow::Result<()> {
             let ext = qean_io::fsutil::extension_lower(&a.path);
             if matches!(ext.as_str(), "wav" | "ogg" | "mp3" | "flac") {
                 features_cmd::inspect_audio(&a.path)
-            } else if a.path.join(qean_train::checkpoint::STATE_FILE).is_file() {
+            } else if a
+                .path
+                .join(qean_checkpoint::checkpoint::STATE_FILE)
+                .is_file()
+            {
                 train_cmds::inspect_checkpoint(&a.path)
             } else if a.path.join("config.toml").is_file() && a.path.join("metrics.csv").is_file() {
                 train_cmds::inspect_run(&a.path)

@@ -5,9 +5,9 @@ use std::path::PathBuf;
 
 use anyhow::bail;
 use clap::Args;
+use qean_checkpoint::checkpoint;
 use qean_models::autoregress::AudioPad;
 use qean_pipeline::generate::{self, GenerateOptions, SeedSource};
-use qean_train::checkpoint;
 
 /// Generate a dance for each song with a trained model (SPEC §6): one model pass per frame, sliding
 /// the motion and music windows; each new frame is the first output token (mint) or the mean of what
@@ -187,7 +187,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         sample_seed: a.sample_seed,
         genre,
     };
-    let pb = qean_train::progress::bar(a.frames as u64, "", "frames");
+    let pb = qean_checkpoint::progress::bar(a.frames as u64, "", "frames");
     let written = generate::generate(&ck, &songs, &seed, &opts, &a.out, |done, total| {
         pb.set_length(total as u64);
         pb.set_position(done as u64);

@@ -6,10 +6,11 @@ use std::sync::Arc;
 
 use anyhow::{anyhow, bail};
 use clap::Args;
+use qean_checkpoint::checkpoint::{self, Checkpoint};
+use qean_checkpoint::ProgressMode;
 use qean_config::run::string_override;
 use qean_config::RunConfig;
-use qean_train::checkpoint::{self, Checkpoint};
-use qean_train::{sweep, ProgressMode, TrainOptions};
+use qean_train::{sweep, TrainOptions};
 
 /// Train a model from a TOML run config (SPEC §5): FACT and QEAN (random 240-frame windows of the train
 /// split, L2 loss on the first 20 output tokens), TSMT, the in-betweeners, the motion VQ-VAE, the GPT over
@@ -313,7 +314,7 @@ pub fn inspect_run(dir: &Path) -> anyhow::Result<()> {
     let config = RunConfig::load(&dir.join("config.toml"), &[])?;
     println!("run: {}", dir.display());
     println!("config: {}", config.summary());
-    let list = qean_train::run_dir::list_checkpoints(dir)?;
+    let list = qean_checkpoint::run_dir::list_checkpoints(dir)?;
     println!("checkpoints: {}", list.len());
     for (_, path) in &list {
         match Checkpoint::read(path) {

@@ -4,40 +4,10 @@
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::feature_cache;
 use qean_aistpp::windows::{SequenceSet, WindowSpec, AUDIO_DIM};
-use qean_audio::{self as audio, FeatureOptions};
+use qean_checkpoint::features::ensure_features;
 use qean_config::recipe::RecipeConfig;
 use qean_io::error::Result;
 use qean_motion::motion::Layout;
-
-/// Makes sure every music ID of `names` has cached features (the default options of
-/// `qean features --dataset`), computing the missing ones.
-pub fn ensure_features(ds: &Dataset, names: &[String]) -> Result<usize> {
-    let ids = Dataset::music_ids(names);
-    let computed = feature_cache::ensure(
-        ds,
-        &ids,
-        |id| FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(id)).cache_key(),
-        |path, id| {
-            tracing::info!("computing music features of {id} ({})", path.display());
-            let f = audio::features_for_file(
-                path,
-                &FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(id)),
-            )?;
-            if f.is_silent() {
-                tracing::warn!(
-                    "{}: the audio is silent (no onsets, no beats)",
-                    path.display()
-                );
-            }
-            Ok((f.data, f.frames))
-        },
-        |_, _, _| {},
-    )?;
-    if computed > 0 {
-        tracing::info!("computed and cached the features of {computed} music IDs");
-    }
-    Ok(computed)
-}
 
 /// One split, ready for windowing, its music features as the recipe feeds them to the model.
 pub fn load_split(

@@ -11,7 +11,7 @@ use qean_io::error::{Error, Result};
 use qean_models::params::{parameter_shapes, params_hash, write_safetensors};
 use qean_models::DanceModel;
 
-use crate::checkpoint::Checkpoint;
+use qean_checkpoint::checkpoint::Checkpoint;
 
 /// What an export wrote.
 #[derive(Debug, Clone, PartialEq)]

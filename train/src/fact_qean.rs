@@ -11,8 +11,8 @@ use qean_io::error::{Error, Result};
 use qean_models::loss::{difference_loss, motion_loss};
 use qean_models::DanceModel;
 
-use crate::checkpoint::Checkpoint;
 use crate::family::{Family, StepContext};
+use qean_checkpoint::checkpoint::Checkpoint;
 use qean_config::run::RunConfig;
 
 /// FACT or QEAN, as the run config's `[model]` table says.

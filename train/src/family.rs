@@ -7,17 +7,15 @@
 //! resumable `WindowSampler`). A family that needs another representation (joint coordinates, tokens)
 //! builds it from the windows in [`Family::inputs`].
 
-use std::path::{Path, PathBuf};
-
 use std::collections::HashSet;
 
 use burn::module::{Module, ModuleVisitor, Param, ParamId};
 use burn::tensor::{Device, Tensor};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::windows::{Batch, SequenceSet, WindowSpec};
-use qean_io::error::{Error, Result};
+use qean_io::error::Result;
 
-use crate::checkpoint::Checkpoint;
+use qean_checkpoint::checkpoint::Checkpoint;
 use qean_config::run::RunConfig;
 
 /// The mean of a batch loss over every sequence's first window, in batches of `batch_size` (weighted by
@@ -50,9 +48,6 @@ pub fn param_ids<M: Module>(module: &M) -> HashSet<ParamId> {
     module.visit(&mut ids);
     ids.0
 }
-
-/// The file a family's extra checkpoint state is written to, beside the weights.
-pub const FAMILY_STATE_FILE: &str = "family.json";
 
 /// What one update knows besides the batch.
 pub struct StepContext<'a> {
@@ -164,67 +159,16 @@ pub trait Family {
     }
 }
 
-/// The family state of a checkpoint (`family.json`), if it has one.
-pub fn read_family_state(checkpoint: &Checkpoint) -> Result<Option<serde_json::Value>> {
-    let path = checkpoint.dir.join(FAMILY_STATE_FILE);
-    if !path.is_file() {
-        return Ok(None);
-    }
-    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-    serde_json::from_str(&text)
-        .map(Some)
-        .map_err(|e| Error::at(&path, format!("malformed family state: {e}")))
-}
-
-/// A resumed stage must find the frozen run it was trained on: the weights hash saved under `key` in the
-/// resume checkpoint's family state equals `frozen`'s (`what`: "the VQ-VAE this GPT", …). No saved hash: fine.
-pub fn check_frozen_hash(
-    resume: Option<&Checkpoint>,
-    key: &str,
-    frozen: &Checkpoint,
-    what: &str,
-) -> Result<()> {
-    let Some(ck) = resume else {
-        return Ok(());
-    };
-    let saved = read_family_state(ck)?;
-    let hash = saved.as_ref().and_then(|s| s[key].as_str());
-    match hash.filter(|h| *h != frozen.state.params_hash) {
-        Some(h) => Err(Error::at(
-            &frozen.dir,
-            format!(
-                "not {what} was trained on (weights hash {} there, {h} when training began)",
-                frozen.state.params_hash
-            ),
-        )),
-        None => Ok(()),
-    }
-}
-
-/// The trainer's error for a weights file.
-fn weights_error(e: qean_models::Error) -> Error {
-    match e {
-        qean_models::Error::Weights { path, message } => Error::at(path, message),
-        other => Error::msg(other.to_string()),
-    }
-}
-
-/// Writes any model's weights to a burnpack file; returns the path written.
-pub fn save_weights<M: Module>(model: &M, path: &Path) -> Result<PathBuf> {
-    qean_models::model::save_weights(model, path).map_err(weights_error)
-}
-
-/// Loads weights saved by [`save_weights`] into a model of the same shape.
-pub fn load_weights<M: Module>(model: M, path: &Path) -> Result<M> {
-    qean_models::model::load_weights(model, path).map_err(weights_error)
-}
-
-/// A checkpoint's model for `family`, on `device` (sampling, evaluation).
+/// A checkpoint's model for `family`, on `device` (a family outside the registry, e.g. a test's; the
+/// sampler loads the registry's families with [`Checkpoint::load_family`]).
 pub fn load_checkpoint_model<F: Family>(
     family: &F,
     checkpoint: &Checkpoint,
     device: &Device,
 ) -> Result<F::Model> {
     let model = family.init(&checkpoint.config, device)?;
-    load_weights(model, &checkpoint.dir.join(crate::checkpoint::MODEL_FILE))
+    qean_checkpoint::weights::load_weights(
+        model,
+        &checkpoint.dir.join(qean_checkpoint::checkpoint::MODEL_FILE),
+    )
 }

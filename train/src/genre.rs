@@ -20,17 +20,16 @@ use qean_models::control::gpt::Gpt;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::checkpoint::Checkpoint;
 use crate::family::{param_ids, Family, StepContext};
 use crate::gpt::{cross_entropy, gpt_of, tensors, GptFamily, GptInputs};
+use qean_checkpoint::checkpoint::Checkpoint;
+use qean_checkpoint::gpt::normal_noise;
+use qean_checkpoint::FamilyModel;
 
 /// The `[genre]` table of a genre-control run.
 pub fn genre_of_config(config: &RunConfig) -> &GenreConfig {
     config.genre_table()
 }
-
-/// The noise z (defined beside the GPT, which draws it too).
-pub use crate::gpt::normal_noise;
 
 /// The frozen GPT of a genre stage.
 pub struct FrozenGpt {
@@ -45,7 +44,7 @@ impl FrozenGpt {
                 "genre.gpt_run is not set: name the trained GPT run (--set genre.gpt_run=DIR)",
             )
         })?;
-        let checkpoint = crate::checkpoint::resolve(run)
+        let checkpoint = qean_checkpoint::checkpoint::resolve(run)
             .map_err(|e| Error::msg(format!("genre.gpt_run: {e}")))?;
         let theirs = match checkpoint.config.spec() {
             qean_config::ModelSpec::Gpt(t) => t,
@@ -75,7 +74,10 @@ impl FrozenGpt {
 
     /// Its weights on `device`.
     pub fn load(&self, device: &Device) -> Result<Gpt> {
-        crate::family::load_checkpoint_model(&GptFamily::default(), &self.checkpoint, device)
+        match self.checkpoint.load_family(device)? {
+            FamilyModel::Gpt(m) => Ok(m),
+            _ => Err(self.checkpoint.not_family("a music-to-dance GPT")),
+        }
     }
 }
 
@@ -130,7 +132,7 @@ fn batch_genres(batch: &Batch) -> Vec<usize> {
     batch
         .names
         .iter()
-        .map(|n| crate::genre_clf::genre_of(n).expect("load_set keeps only named genres"))
+        .map(|n| qean_aistpp::names::genre_of(n).expect("load_set keeps only named genres"))
         .collect()
 }
 
@@ -267,7 +269,7 @@ impl Family for GenreFamily {
             .map_err(|e| Error::msg(format!("codebook: {e:?}")))?;
         debug_assert_eq!(self.codebook.len(), k * dim);
         self.code_dim = dim;
-        crate::family::check_frozen_hash(
+        qean_checkpoint::weights::check_frozen_hash(
             resume,
             "gpt_params_hash",
             &frozen.checkpoint,
@@ -298,7 +300,7 @@ impl Family for GenreFamily {
         if let Some(s) = set
             .sequences
             .iter()
-            .find(|s| crate::genre_clf::genre_of(&s.name).is_none())
+            .find(|s| qean_aistpp::names::genre_of(&s.name).is_none())
         {
             return Err(Error::at(
                 dataset.motion_path(&s.name),

@@ -4,7 +4,6 @@
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::feature_cache;
-use qean_aistpp::names::GENRES;
 use qean_aistpp::windows::{Batch, SequenceSet, WindowSpec};
 use qean_config::genre_clf::GenreClfConfig;
 use qean_config::run::RunConfig;
@@ -12,9 +11,11 @@ use qean_io::error::{Error, Result};
 use qean_models::control::genre_clf::GenreClassifier;
 use qean_models::tsmt::loss::masked_cross_entropy;
 use qean_motion::motion::{Layout, Motion};
-use qean_motion::pos72::{Pos72Options, POS72};
+use qean_motion::pos72::POS72;
 
 use crate::family::{Family, StepContext};
+use qean_aistpp::names::genre_of;
+use qean_checkpoint::genre_clf::pos72_rows;
 
 /// The classifier family.
 #[derive(Debug, Default)]
@@ -23,22 +24,6 @@ pub struct GenreClfFamily;
 /// The `[genre_clf]` table of a classifier run.
 pub fn clf_of(config: &RunConfig) -> &GenreClfConfig {
     config.genre_clf_table()
-}
-
-/// The genre index of an AIST++ name (`gBR_…` → 0), if it has one.
-pub fn genre_of(name: &str) -> Option<usize> {
-    genre_index(name.strip_prefix('g')?)
-}
-
-/// The genre whose two-letter AIST++ code starts `code` (`BR…` → 0).
-pub fn genre_index(code: &str) -> Option<usize> {
-    let code = code.get(..2)?;
-    GENRES.iter().position(|g| *g == code)
-}
-
-/// pos72 rows (f32, default options) of a motion.
-pub fn pos72_rows(motion: &Motion) -> Vec<f32> {
-    crate::vqvae::pos72_rows(motion, &Pos72Options::default())
 }
 
 /// Mean cross-entropy of logits [B, 10] against labels.
@@ -82,7 +67,7 @@ impl Family for GenreClfFamily {
         spec: WindowSpec,
         _config: &RunConfig,
     ) -> Result<SequenceSet> {
-        crate::data::ensure_features(dataset, &dataset.split(split))?;
+        qean_checkpoint::features::ensure_features(dataset, &dataset.split(split))?;
         let set = SequenceSet::load(dataset, split, Layout::L219, spec, |id| {
             feature_cache::load(dataset, id)
         })?;
@@ -137,16 +122,5 @@ impl Family for GenreClfFamily {
             let (x, labels) = tensors(&batch, device);
             clf_loss(model.forward(x), &labels, device)
         })
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn genre_codes_in_order() {
-        assert_eq!(super::genre_of("gBR_sBM_cAll_d04_mBR0_ch01"), Some(0));
-        assert_eq!(super::genre_of("gJB_sFM_cAll_d09_mJB5_ch10"), Some(9));
-        assert_eq!(super::genre_of("gKR_x"), Some(7));
-        assert_eq!(super::genre_of("softcat"), None);
     }
 }

@@ -14,79 +14,12 @@ use qean_config::run::RunConfig;
 use qean_io::error::{Error, Result};
 use qean_models::control::gpt::{music_token_dim, Gpt};
 use qean_models::tsmt::loss::masked_cross_entropy;
-use qean_models::vqvae::VqVae;
 use qean_motion::motion::{Layout, Motion};
-use qean_motion::pos72::POS72;
 use rand::{Rng, SeedableRng};
 
-use crate::checkpoint::Checkpoint;
 use crate::family::{Family, StepContext};
-use crate::vqvae::{motion_pos72, normalise, VqFamily};
-
-/// Music feature columns.
-const FEATURES: usize = 35;
-
-/// The frozen VQ-VAE a GPT run predicts the tokens of.
-pub struct FrozenVq {
-    pub model: VqVae,
-    pub checkpoint: Checkpoint,
-}
-
-impl FrozenVq {
-    /// The newest checkpoint of `gpt.vqvae_run`, checked against the GPT's codes and rate.
-    pub fn load(g: &GptConfig) -> Result<FrozenVq> {
-        let run = g.vqvae_run.as_ref().ok_or_else(|| {
-            Error::msg(
-                "gpt.vqvae_run is not set: name the trained VQ-VAE run (--set gpt.vqvae_run=DIR)",
-            )
-        })?;
-        let checkpoint = crate::checkpoint::resolve(run)
-            .map_err(|e| Error::msg(format!("gpt.vqvae_run: {e}")))?;
-        if !matches!(checkpoint.config.spec(), qean_config::ModelSpec::Vqvae(_)) {
-            return Err(Error::at(
-                &checkpoint.dir,
-                format!(
-                    "gpt.vqvae_run is not a VQ-VAE run (model.arch = {:?})",
-                    checkpoint.config.model.arch
-                ),
-            ));
-        }
-        let vq = crate::vqvae::vq_of(&checkpoint.config);
-        if vq.codes != g.codes || vq.rate() != g.rate {
-            return Err(Error::at(
-                &checkpoint.dir,
-                format!(
-                    "the VQ-VAE has {} codes at {} frames per token; this GPT is built for {} codes at {} (gpt.codes, gpt.rate)",
-                    vq.codes,
-                    vq.rate(),
-                    g.codes,
-                    g.rate
-                ),
-            ));
-        }
-        let model = crate::family::load_checkpoint_model(
-            &VqFamily::default(),
-            &checkpoint,
-            &Device::flex(),
-        )?;
-        Ok(FrozenVq { model, checkpoint })
-    }
-
-    /// The tokens of a motion's first `frames` frames (a multiple of the rate).
-    pub fn tokens(&self, motion: &Motion, frames: usize) -> Result<Vec<usize>> {
-        let c = crate::vqvae::vq_of(&self.checkpoint.config);
-        let mut rows = motion_pos72(motion, c);
-        rows.truncate(frames * POS72);
-        normalise(&mut rows, c);
-        let x = Tensor::<3>::from_data(TensorData::new(rows, [1, frames, POS72]), &Device::flex());
-        self.model.tokens(x).map_err(Error::msg)
-    }
-}
-
-/// Music tokens a_i[35u + c] = A[rate·i + u, c] of the first `n` tokens of a feature matrix (frames × 35).
-pub fn music_tokens(features: &[f32], n: usize, rate: usize) -> Vec<f32> {
-    features[..n * rate * FEATURES].to_vec()
-}
+use qean_checkpoint::checkpoint::Checkpoint;
+use qean_checkpoint::gpt::{music_tokens, normal_noise, FrozenVq, FEATURES};
 
 /// The GPT family: the frozen VQ-VAE once `prepare` has loaded it, and the text data of text steps.
 #[derive(Default)]
@@ -207,7 +140,7 @@ impl GptFamily {
                     }
                     a.data.iter().map(|&v| v as f32).collect()
                 }
-                None => match crate::genre_clf::genre_of(&name) {
+                None => match qean_aistpp::names::genre_of(&name) {
                     Some(genre) => genre_embedding(genre, g.text_dim),
                     None => continue,
                 },
@@ -275,17 +208,6 @@ pub struct GptInputs {
     pub tokens: Tensor<2, Int>,
     pub music: Tensor<3>,
     pub targets: Tensor<2, Int>,
-}
-
-/// `n` standard normal values from a seeded ChaCha stream (Box–Muller, row-major): the noise z.
-pub fn normal_noise(seed: u64, n: usize) -> Vec<f32> {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    (0..n)
-        .map(|_| {
-            let (u1, u2): (f64, f64) = (rng.random(), rng.random());
-            ((-2.0 * (1.0 - u1).ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()) as f32
-        })
-        .collect()
 }
 
 /// The `[gpt]` table of a GPT run.
@@ -374,7 +296,7 @@ impl Family for GptFamily {
             .ok_or_else(|| Error::msg("model.arch = \"gpt\" needs a [gpt] table"))?;
         g.validate().map_err(Error::msg)?;
         let vq = FrozenVq::load(g)?;
-        crate::family::check_frozen_hash(
+        qean_checkpoint::weights::check_frozen_hash(
             resume,
             "vqvae_params_hash",
             &vq.checkpoint,
@@ -414,7 +336,7 @@ impl Family for GptFamily {
     ) -> Result<SequenceSet> {
         let g = gpt_of(config);
         let vq = self.vq.as_ref().expect("prepare loads the VQ-VAE");
-        crate::data::ensure_features(dataset, &dataset.split(split))?;
+        qean_checkpoint::features::ensure_features(dataset, &dataset.split(split))?;
         let span = spec.span() * g.rate;
         let frame_spec = WindowSpec {
             motion_len: span,

@@ -1,9 +1,9 @@
 //! qean-train: training every model family (FACT, QEAN, TSMT, the in-betweener, the VQ-VAE, the GPT,
 //! genre control, the genre classifier) from TOML run configs — run configs with `extends` and
 //! `--set`, the training loop, LR schedules, metrics logs, atomic checkpoints with exact resume,
-//! sweeps, and the safetensors export.
+//! sweeps, and the safetensors export. What a run leaves (checkpoints, run directories, loading a
+//! checkpoint's model) is read by qean-checkpoint, below this crate.
 
-pub mod checkpoint;
 pub mod data;
 pub mod export;
 pub mod fact_qean;
@@ -19,13 +19,11 @@ pub mod progress;
 pub mod recipe;
 pub mod registry;
 pub mod resume;
-pub mod run_dir;
 pub mod sweep;
 pub mod trainer;
 pub mod tsmt;
 pub mod vqvae;
 
-pub use checkpoint::Checkpoint;
 pub use family::Family;
 pub use registry::train;
-pub use trainer::{train_family, ProgressMode, Start, TrainOptions, TrainOutcome};
+pub use trainer::{train_family, Start, TrainOptions, TrainOutcome};

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use qean_io::error::{Error, Result};
 
-use crate::checkpoint::{self, Checkpoint};
-use crate::run_dir;
+use qean_checkpoint::checkpoint::{self, Checkpoint};
+use qean_checkpoint::run_dir;
 use qean_config::run::RunConfig;
 
 /// Where a run starts.

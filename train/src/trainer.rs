@@ -17,13 +17,13 @@ use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::windows::{SequenceSet, WindowSampler};
 use qean_io::error::{Error, Result};
 
-use crate::checkpoint::{self, Best, Checkpoint, TrainerState};
-use crate::family::{self, Family, StepContext};
+use crate::family::{Family, StepContext};
 use crate::metrics_log::{self, MetricsLog, Row};
-pub use crate::progress::ProgressMode;
 use crate::progress::Reporter;
 pub use crate::resume::Start;
-use crate::run_dir::{self, RunLock};
+use qean_checkpoint::checkpoint::{self, Best, Checkpoint, TrainerState};
+use qean_checkpoint::run_dir::{self, RunLock};
+use qean_checkpoint::ProgressMode;
 use qean_config::run::RunConfig;
 
 /// Options of one `train` call.
@@ -320,9 +320,9 @@ impl<F: Family> Session<'_, F> {
         let config_text = self.config.to_toml().map_err(Error::msg)?;
         let family_state = self.family.checkpoint_state();
         qean_io::fsutil::atomic_dir(&dir, |tmp| {
-            family::save_weights(&self.model, &tmp.join(checkpoint::MODEL_FILE))?;
+            qean_checkpoint::weights::save_weights(&self.model, &tmp.join(checkpoint::MODEL_FILE))?;
             if let Some(v) = &family_state {
-                let p = tmp.join(family::FAMILY_STATE_FILE);
+                let p = tmp.join(qean_checkpoint::weights::FAMILY_STATE_FILE);
                 let json = serde_json::to_string_pretty(v).expect("JSON value serialises");
                 std::fs::write(&p, json).map_err(|e| Error::io(&p, e))?;
             }
@@ -489,7 +489,10 @@ impl<'f, F: Family> Session<'f, F> {
         device.seed(seed);
         let mut model = family.init(&config, &device)?;
         if let Some(ck) = resume {
-            model = family::load_weights(model, &ck.dir.join(checkpoint::MODEL_FILE))?;
+            model = qean_checkpoint::weights::load_weights(
+                model,
+                &ck.dir.join(checkpoint::MODEL_FILE),
+            )?;
         }
         // Parameter ids survive every update, so the groups are found once.
         let groups = family.param_groups(&model);

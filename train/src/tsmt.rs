@@ -20,8 +20,8 @@ use qean_models::tsmt::{pose_coords, Bins, Tsmt, TsmtInput};
 use qean_motion::fk::FkRoot;
 use qean_motion::motion::{Layout, Motion};
 
-use crate::checkpoint::Checkpoint;
 use crate::family::{Family, StepContext};
+use qean_checkpoint::checkpoint::Checkpoint;
 
 /// Columns of a TSMT music row in the window sets: 26 MFCC + Δ values, then the beat flag.
 pub const AUDIO_COLS: usize = TSMT_MFCC_DIM + 1;
@@ -271,7 +271,7 @@ impl Family for TsmtFamily {
             .bins
             .as_ref()
             .expect("prepare fits or restores the bins before the data loads");
-        crate::data::ensure_features(dataset, &dataset.split(split))?;
+        qean_checkpoint::features::ensure_features(dataset, &dataset.split(split))?;
         let set = SequenceSet::load(dataset, split, Layout::L219, spec, |id| {
             feature_cache::load(dataset, id)
         })?;

@@ -14,13 +14,13 @@ use qean_config::vqvae::{Quantizer, ResetSource, VqConfig, VqLoss, VqNormalise};
 use qean_io::error::{Error, Result};
 use qean_models::vqvae::quantize::{assign, ChaChaEma, EmaCodebook, EmaOptions};
 use qean_models::vqvae::VqVae;
-use qean_motion::fk::FkRoot;
 use qean_motion::motion::{Layout, Motion};
-use qean_motion::pos72::{joints_to_pos72, Pos72Options, POS72};
+use qean_motion::pos72::POS72;
 use rand::{Rng, SeedableRng};
 
-use crate::checkpoint::Checkpoint;
 use crate::family::{Family, StepContext};
+use qean_checkpoint::checkpoint::Checkpoint;
+use qean_checkpoint::vqvae::{motion_pos72, normalise};
 
 /// The VQ-VAE family. Holds the EMA state of the last update until the trainer hands the model back.
 #[derive(Debug, Default)]
@@ -39,49 +39,6 @@ pub struct VqInputs {
 /// The `[vq]` table of a VQ-VAE run.
 pub fn vq_of(config: &RunConfig) -> &VqConfig {
     config.vq_table()
-}
-
-/// The pos72 options of a `[vq]` table.
-pub fn pos72_options(c: &VqConfig) -> Pos72Options {
-    Pos72Options {
-        root: c.root,
-        root_vel_scale: c.root_vel_scale,
-    }
-}
-
-/// pos72 rows (f32) of a motion with the `[vq]` table's options.
-pub fn motion_pos72(motion: &Motion, c: &VqConfig) -> Vec<f32> {
-    pos72_rows(motion, &pos72_options(c))
-}
-
-/// pos72 rows (f32) of a motion: FK joints with the `smpl` root (SPEC §13.2.1).
-pub fn pos72_rows(motion: &Motion, opts: &Pos72Options) -> Vec<f32> {
-    joints_to_pos72(&motion.joints(FkRoot::Smpl), opts)
-        .into_iter()
-        .map(|v| v as f32)
-        .collect()
-}
-
-/// Rows normalised in place with the table's statistics (`zscore`; no-op otherwise).
-pub fn normalise(rows: &mut [f32], c: &VqConfig) {
-    if c.normalise == VqNormalise::Zscore && c.mean.len() == POS72 {
-        for row in rows.chunks_exact_mut(POS72) {
-            for (k, v) in row.iter_mut().enumerate() {
-                *v = ((*v as f64 - c.mean[k]) / c.std[k]) as f32;
-            }
-        }
-    }
-}
-
-/// The inverse of [`normalise`].
-pub fn denormalise(rows: &mut [f32], c: &VqConfig) {
-    if c.normalise == VqNormalise::Zscore && c.mean.len() == POS72 {
-        for row in rows.chunks_exact_mut(POS72) {
-            for (k, v) in row.iter_mut().enumerate() {
-                *v = (*v as f64 * c.std[k] + c.mean[k]) as f32;
-            }
-        }
-    }
 }
 
 /// Per-channel mean and SD (ddof 0) of the training split's pos72 frames.
@@ -207,7 +164,7 @@ impl Family for VqFamily {
         config: &RunConfig,
     ) -> Result<SequenceSet> {
         let c = vq_of(config);
-        crate::data::ensure_features(dataset, &dataset.split(split))?;
+        qean_checkpoint::features::ensure_features(dataset, &dataset.split(split))?;
         let set = SequenceSet::load(dataset, split, Layout::L219, spec, |id| {
             feature_cache::load(dataset, id)
         })?;

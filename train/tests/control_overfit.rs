@@ -8,13 +8,14 @@ use std::time::Instant;
 use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Device, Int, Tensor, TensorData};
+use qean_checkpoint::vqvae::motion_pos72;
 use qean_config::RunConfig;
 use qean_models::control::gpt::{music_token_dim, Gpt};
 use qean_models::vqvae::quantize::assign;
 use qean_models::vqvae::VqVae;
 use qean_motion::pos72::POS72;
 use qean_train::family::Family;
-use qean_train::vqvae::{motion_pos72, vq_of, VqFamily, VqInputs};
+use qean_train::vqvae::{vq_of, VqFamily, VqInputs};
 
 fn preset(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

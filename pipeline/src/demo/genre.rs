@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use crate::evaluate::RunEvalRequest;
 use crate::genre_control::{control_test, ControlReport};
-use qean_train::checkpoint::Checkpoint;
+use qean_checkpoint::checkpoint::Checkpoint;
 
 /// The genres whose dances to the held-out song the demo writes (`dances/genre-<G>/`): two whose
 /// AIST++ styles differ most (krump's stomps and chest pops, waacking's arm whips).
@@ -35,7 +35,7 @@ pub fn run(
     let (control, _) = control_test(&req, &clf.dir)?;
     let control_md = genre_run
         .join("eval")
-        .join(qean_train::run_dir::checkpoint_name(control.step))
+        .join(qean_checkpoint::run_dir::checkpoint_name(control.step))
         .join("control.md");
     append_to_report(&control_md)?;
     Ok(GenreDemo {

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use crate::edit::{edit, sibling, EditMethod, EditRequest};
 use crate::error::Context;
+use qean_checkpoint::checkpoint::Checkpoint;
 use qean_eval::motion_energy::{joint_accels, joint_speeds};
 use qean_eval::Frame;
 use qean_io::fsutil::atomic_write;
@@ -13,7 +14,6 @@ use qean_keyframes::bezier::BezierSettings;
 use qean_keyframes::KeyframeOptions;
 use qean_motion::motion::read_motion;
 use qean_motion::FkRoot;
-use qean_train::checkpoint::Checkpoint;
 
 /// Keys per measure (Lin's middle setting).
 pub const KEYS: usize = 5;

@@ -26,9 +26,9 @@ use qean_io::fsutil::atomic_write;
 use crate::error::{bail, Context};
 use crate::evaluate::{evaluate_run, RunEvalRequest};
 use crate::generate::{self, GenerateOptions, SeedSource};
+use qean_checkpoint::checkpoint::Checkpoint;
+use qean_checkpoint::ProgressMode;
 use qean_synth::{self as synth, RealTrack, SynthOptions};
-use qean_train::checkpoint::Checkpoint;
-use qean_train::ProgressMode;
 
 /// A file shipped inside the binary.
 struct Asset {
@@ -400,11 +400,12 @@ fn plan<'a>(
         let config = opts.out.join(preset);
         let wanted = RunConfig::load(&config, &overrides)?;
         let run_dir = opts.out.join("runs").join(name);
-        let resume = qean_train::run_dir::list_checkpoints(&run_dir).is_ok_and(|c| !c.is_empty());
+        let resume =
+            qean_checkpoint::run_dir::list_checkpoints(&run_dir).is_ok_and(|c| !c.is_empty());
         if resume {
             // The trainer's own check, made here too so that a run of an earlier demo (e.g. before
             // a preset changed) stops the demo before any training starts.
-            qean_train::checkpoint::resolve(&run_dir)?.check_config(&wanted)?;
+            qean_checkpoint::checkpoint::resolve(&run_dir)?.check_config(&wanted)?;
         }
         plans.push(Plan {
             name,
@@ -496,7 +497,7 @@ fn train_all(
         let last = reader.join().unwrap_or_default();
         match status.code() {
             Some(0) => {
-                let ck = qean_train::checkpoint::resolve(&p.run_dir)?;
+                let ck = qean_checkpoint::checkpoint::resolve(&p.run_dir)?;
                 let (seconds, loss) = (ck.state.elapsed_seconds, ck.state.last_loss);
                 results.push((ck, seconds, loss));
             }
@@ -572,7 +573,8 @@ fn dance(
         qean_eval::run_report::SeedStart::Zero,
         ck,
     )?;
-    let pb = qean_train::progress::bar(frames as u64, &format!("[demo] dance {name}"), "frames");
+    let pb =
+        qean_checkpoint::progress::bar(frames as u64, &format!("[demo] dance {name}"), "frames");
     let written = generate::generate(
         ck,
         &[song],
@@ -671,7 +673,7 @@ fn evaluate(
 ) -> crate::Result<(RunReport, PathBuf)> {
     let dir = run_dir
         .join("eval")
-        .join(qean_train::run_dir::checkpoint_name(ck.state.step));
+        .join(qean_checkpoint::run_dir::checkpoint_name(ck.state.step));
     let json = dir.join("report.json");
     let md = dir.join("report.md");
     if json.is_file() && md.is_file() {
@@ -1121,7 +1123,7 @@ pub fn run(opts: &DemoOptions) -> crate::Result<DemoResult> {
     // The music features, once, before the training processes start: three processes filling the
     // same cache at once would replace each other's files under each other's reads.
     let ds = qean_aistpp::dataset::Dataset::open(&data)?;
-    let computed = qean_train::data::ensure_features(&ds, &ds.all_sequences()?)?;
+    let computed = qean_checkpoint::features::ensure_features(&ds, &ds.all_sequences()?)?;
     if computed > 0 {
         say(format!(
             "features: computed the music features of {computed} music IDs"

@@ -1,4 +1,4 @@
-//! `qean bench`: the speed and memory of every stage a researcher waits on, measured the same way
+//! qean-bench, `qean bench`: the speed and memory of every stage a researcher waits on, measured the same way
 //! each time, optionally side by side with the peer implementations in `bench/peer/`:
 //!
 //! | id | what | peer |
@@ -14,6 +14,22 @@
 //! so it is timed over a few frames and reported as frames per second with the 40 × 1200 time it
 //! implies.
 
+/// Returns early with the pipeline's `Error::Invalid`, built like `format!`.
+macro_rules! bail {
+    ($($arg:tt)*) => {
+        return Err(qean_pipeline::Error::Invalid(format!($($arg)*)))
+    };
+}
+
+/// [`bail!`] unless the condition holds.
+macro_rules! ensure {
+    ($cond:expr, $($arg:tt)*) => {
+        if !$cond {
+            bail!($($arg)*);
+        }
+    };
+}
+
 mod measures;
 mod peers;
 mod report;
@@ -21,7 +37,9 @@ mod tsmt;
 
 use std::path::PathBuf;
 
-use crate::error::Context;
+use qean_pipeline::error::Context;
+
+pub use qean_pipeline::{Error, Result};
 
 pub use measures::{run_measure, Inputs, MeasureId, Sizes};
 pub use peers::{PeerCommand, Peers};
@@ -141,7 +159,7 @@ fn run_child(
         .stderr(std::process::Stdio::inherit())
         .output()
         .with_context(|| format!("{}: cannot start the measure process", exe.display()))?;
-    crate::error::ensure!(
+    ensure!(
         out.status.success(),
         "the {} measure process failed ({})",
         id.name(),

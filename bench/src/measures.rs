@@ -185,7 +185,7 @@ impl Inputs {
     /// Writes the inputs under `dir`: the embedded configs and music, the track, the set's JSON.
     pub fn prepare(dir: &Path, sizes: &Sizes) -> crate::Result<Inputs> {
         let inputs = Inputs::open(dir, sizes);
-        crate::demo::write_assets(dir)?;
+        qean_pipeline::demo::write_assets(dir)?;
         let source = dir.join("assets/music/Kevin_MacLeod_-_Vibe_Ace.ogg");
         let decoded = qean_audio::decode::decode_file(&source, 3600.0)?;
         let song: Vec<f64> = decoded.samples.iter().map(|&v| v as f64).collect();
@@ -278,7 +278,7 @@ fn features(inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
         let t = Instant::now();
         let f = features_for_file(&inputs.track, &opts)?;
         times.push(t.elapsed().as_secs_f64());
-        crate::error::ensure!(f.frames > 0, "no feature frames");
+        ensure!(f.frames > 0, "no feature frames");
     }
     Ok(Entry::time(
         MeasureId::Features,
@@ -307,7 +307,7 @@ fn metrics(inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
         let t = Instant::now();
         let report = evaluate(&generated, &reference, Some(&beats), &cfg)?;
         times.push(t.elapsed().as_secs_f64());
-        crate::error::ensure!(report.fid_k.is_finite(), "FID_k is not finite");
+        ensure!(report.fid_k.is_finite(), "FID_k is not finite");
     }
     Ok(Entry::time(
         MeasureId::Metrics,
@@ -369,7 +369,7 @@ fn train(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> crate:
             0.0,
         );
         model = next;
-        crate::error::ensure!(loss.is_finite(), "the benchmark loss is not finite");
+        ensure!(loss.is_finite(), "the benchmark loss is not finite");
         if k > 0 {
             times.push(t.elapsed().as_secs_f64());
         }
@@ -418,7 +418,7 @@ fn sampling(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> cra
     let t = Instant::now();
     let out = sample(&model, &device, &requests, &opts(frames), |_, _| {})?;
     let seconds = t.elapsed().as_secs_f64();
-    crate::error::ensure!(
+    ensure!(
         out.len() == sizes.sequences,
         "sampler returned {} sequences",
         out.len()

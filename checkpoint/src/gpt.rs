@@ -1,0 +1,88 @@
+//! What the GPT reads and writes besides its weights (SPEC §13.3): the frozen VQ-VAE whose tokens it
+//! predicts, the music tokens of a feature matrix, and the seeded noise z of genre control.
+
+use burn::tensor::{Device, Tensor, TensorData};
+use qean_config::gpt::GptConfig;
+use qean_io::error::{Error, Result};
+use qean_models::vqvae::VqVae;
+use qean_motion::motion::Motion;
+use qean_motion::pos72::POS72;
+use rand::{Rng, SeedableRng};
+
+use crate::checkpoint::Checkpoint;
+use crate::registry::FamilyModel;
+use crate::vqvae::{motion_pos72, normalise};
+
+/// Music feature columns.
+pub const FEATURES: usize = 35;
+
+/// The frozen VQ-VAE a GPT run predicts the tokens of.
+pub struct FrozenVq {
+    pub model: VqVae,
+    pub checkpoint: Checkpoint,
+}
+
+impl FrozenVq {
+    /// The newest checkpoint of `gpt.vqvae_run`, checked against the GPT's codes and rate.
+    pub fn load(g: &GptConfig) -> Result<FrozenVq> {
+        let run = g.vqvae_run.as_ref().ok_or_else(|| {
+            Error::msg(
+                "gpt.vqvae_run is not set: name the trained VQ-VAE run (--set gpt.vqvae_run=DIR)",
+            )
+        })?;
+        let checkpoint = crate::checkpoint::resolve(run)
+            .map_err(|e| Error::msg(format!("gpt.vqvae_run: {e}")))?;
+        if !matches!(checkpoint.config.spec(), qean_config::ModelSpec::Vqvae(_)) {
+            return Err(Error::at(
+                &checkpoint.dir,
+                format!(
+                    "gpt.vqvae_run is not a VQ-VAE run (model.arch = {:?})",
+                    checkpoint.config.model.arch
+                ),
+            ));
+        }
+        let vq = checkpoint.config.vq_table();
+        if vq.codes != g.codes || vq.rate() != g.rate {
+            return Err(Error::at(
+                &checkpoint.dir,
+                format!(
+                    "the VQ-VAE has {} codes at {} frames per token; this GPT is built for {} codes at {} (gpt.codes, gpt.rate)",
+                    vq.codes,
+                    vq.rate(),
+                    g.codes,
+                    g.rate
+                ),
+            ));
+        }
+        let FamilyModel::Vqvae(model) = checkpoint.load_family(&Device::flex())? else {
+            unreachable!("a VQ-VAE spec loads a VQ-VAE");
+        };
+        Ok(FrozenVq { model, checkpoint })
+    }
+
+    /// The tokens of a motion's first `frames` frames (a multiple of the rate).
+    pub fn tokens(&self, motion: &Motion, frames: usize) -> Result<Vec<usize>> {
+        let c = self.checkpoint.config.vq_table();
+        let mut rows = motion_pos72(motion, c);
+        rows.truncate(frames * POS72);
+        normalise(&mut rows, c);
+        let x = Tensor::<3>::from_data(TensorData::new(rows, [1, frames, POS72]), &Device::flex());
+        self.model.tokens(x).map_err(Error::msg)
+    }
+}
+
+/// Music tokens a_i[35u + c] = A[rate·i + u, c] of the first `n` tokens of a feature matrix (frames × 35).
+pub fn music_tokens(features: &[f32], n: usize, rate: usize) -> Vec<f32> {
+    features[..n * rate * FEATURES].to_vec()
+}
+
+/// `n` standard normal values from a seeded ChaCha stream (Box–Muller, row-major): the noise z.
+pub fn normal_noise(seed: u64, n: usize) -> Vec<f32> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    (0..n)
+        .map(|_| {
+            let (u1, u2): (f64, f64) = (rng.random(), rng.random());
+            ((-2.0 * (1.0 - u1).ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()) as f32
+        })
+        .collect()
+}

@@ -1,0 +1,113 @@
+//! The one place that builds a checkpoint's model for each family: one `match` on the run's [`ModelSpec`]
+//! gives a [`FamilyModel`], and the sampler, the evaluation and `inspect` take the variant they handle. The
+//! weights are the checkpoint's `model.bpk`; a model is built from the checkpoint's own config, so a
+//! checkpoint never loads into another family's shape.
+
+use burn::tensor::Device;
+use qean_config::ModelSpec;
+use qean_io::error::{Error, Result};
+use qean_models::control::genre::GenreGpt;
+use qean_models::control::genre_clf::GenreClassifier;
+use qean_models::control::gpt::Gpt;
+use qean_models::inbetween::Inbetweener;
+use qean_models::params::{named_parameters, NamedParam};
+use qean_models::tsmt::Tsmt;
+use qean_models::vqvae::VqVae;
+use qean_models::DanceModel;
+
+use crate::checkpoint::{Checkpoint, MODEL_FILE};
+use crate::weights::load_weights;
+
+/// A checkpoint's model, by family.
+// Built once per load and taken apart at once: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
+pub enum FamilyModel {
+    FactQean(DanceModel),
+    Tsmt(Tsmt),
+    Inbetween(Inbetweener),
+    Vqvae(VqVae),
+    Gpt(Gpt),
+    GptGenre(GenreGpt),
+    GenreClf(GenreClassifier),
+}
+
+impl FamilyModel {
+    /// Every parameter, whatever the family (inspection, export).
+    pub fn named_parameters(&self) -> Vec<NamedParam> {
+        match self {
+            FamilyModel::FactQean(m) => named_parameters(m),
+            FamilyModel::Tsmt(m) => named_parameters(m),
+            FamilyModel::Inbetween(m) => named_parameters(m),
+            FamilyModel::Vqvae(m) => named_parameters(m),
+            FamilyModel::Gpt(m) => named_parameters(m),
+            FamilyModel::GptGenre(m) => named_parameters(m),
+            FamilyModel::GenreClf(m) => named_parameters(m),
+        }
+    }
+}
+
+impl Checkpoint {
+    /// The checkpoint's model with its weights, on `device`.
+    pub fn load_family(&self, device: &Device) -> Result<FamilyModel> {
+        let path = self.dir.join(MODEL_FILE);
+        Ok(match self.config.spec() {
+            ModelSpec::FactQean(m) => FamilyModel::FactQean(load_weights(
+                DanceModel::new(m, device).map_err(|e| Error::at(&self.dir, e.to_string()))?,
+                &path,
+            )?),
+            ModelSpec::Tsmt(t) => FamilyModel::Tsmt(load_weights(Tsmt::new(t, device), &path)?),
+            ModelSpec::Inbetween(c) => {
+                FamilyModel::Inbetween(load_weights(Inbetweener::new(c, device), &path)?)
+            }
+            ModelSpec::Vqvae(v) => FamilyModel::Vqvae(load_weights(VqVae::new(v, device), &path)?),
+            ModelSpec::Gpt(g) => FamilyModel::Gpt(load_weights(Gpt::new(g, device), &path)?),
+            ModelSpec::GptGenre(g, c) => FamilyModel::GptGenre(load_weights(
+                GenreGpt::new(g, c, c.code_dim, device),
+                &path,
+            )?),
+            ModelSpec::GenreClf(c) => {
+                FamilyModel::GenreClf(load_weights(GenreClassifier::new(c, device), &path)?)
+            }
+        })
+    }
+
+    /// The FACT or QEAN model with this checkpoint's weights, on `device` (another family's checkpoint is
+    /// an error that says what takes it, before any weights are read).
+    pub fn load_model(&self, device: &Device) -> Result<DanceModel> {
+        let other = match self.config.spec() {
+            ModelSpec::FactQean(_) => match self.load_family(device)? {
+                FamilyModel::FactQean(m) => return Ok(m),
+                _ => unreachable!("a FACT/QEAN spec loads a FACT/QEAN model"),
+            },
+            ModelSpec::Tsmt(_) => {
+                "a TSMT checkpoint, not FACT or QEAN: this command does not take TSMT runs"
+            }
+            ModelSpec::Inbetween(_) => {
+                "an in-betweener checkpoint, not FACT or QEAN: it does not generate dances from music"
+            }
+            ModelSpec::GenreClf(_) => {
+                "a genre classifier checkpoint, not FACT or QEAN: `qean eval --run` scores it"
+            }
+            ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) => {
+                "a music-to-dance GPT checkpoint, not FACT or QEAN: `qean sample` and `qean eval` take it"
+            }
+            ModelSpec::Vqvae(_) => {
+                "a motion VQ-VAE checkpoint, not FACT or QEAN: it encodes and decodes dances, it does not generate them"
+            }
+        };
+        Err(Error::at(&self.dir, other))
+    }
+
+    /// Every parameter of the checkpoint's model, whatever its family (inspection, export).
+    pub fn named_parameters(&self, device: &Device) -> Result<Vec<NamedParam>> {
+        Ok(self.load_family(device)?.named_parameters())
+    }
+
+    /// The error for a checkpoint of another family than the command takes (`what`: "a TSMT", …).
+    pub fn not_family(&self, what: &str) -> Error {
+        Error::at(
+            &self.dir,
+            format!("not {what} run (model.arch = {:?})", self.config.model.arch),
+        )
+    }
+}
