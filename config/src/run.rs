@@ -663,22 +663,28 @@ mod tests {
     #[test]
     fn shipped_presets_load() {
         let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs");
-        for name in [
-            "fact.toml",
-            "qean/baseline.toml",
-            "qean/spe.toml",
-            "qean/qra.toml",
-            "qean/full.toml",
-            "tiny/fact.toml",
-            "tiny/baseline.toml",
-            "tiny/spe.toml",
-            "tiny/qra.toml",
-            "tiny/full.toml",
-        ] {
-            let c =
-                RunConfig::load(&configs.join(name), &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
-            assert!(c.train.steps > 0, "{name}");
+        // Every run preset of every family (configs/sweeps/ holds sweep plans, not run configs).
+        fn presets(dir: &Path, out: &mut Vec<PathBuf>) {
+            for entry in std::fs::read_dir(dir).unwrap() {
+                let path = entry.unwrap().path();
+                if path.is_dir() && !path.ends_with("sweeps") {
+                    presets(&path, out);
+                } else if path.extension().is_some_and(|e| e == "toml") {
+                    out.push(path);
+                }
+            }
         }
+        let mut all = Vec::new();
+        presets(&configs, &mut all);
+        assert!(all.len() >= 35, "{} presets", all.len());
+        let mut families = std::collections::BTreeSet::new();
+        for path in &all {
+            let c =
+                RunConfig::load(path, &[]).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            assert!(c.train.steps > 0, "{}", path.display());
+            families.insert(c.spec().family());
+        }
+        assert_eq!(families.len(), 7, "{families:?}");
         let fact = RunConfig::load(&configs.join("fact.toml"), &[]).unwrap();
         assert_eq!(fact.train.batch_size, 32);
         assert_eq!(fact.schedule.boundaries, vec![100_000, 150_000]);
