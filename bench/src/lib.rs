@@ -14,22 +14,6 @@
 //! so it is timed over a few frames and reported as frames per second with the 40 × 1200 time it
 //! implies.
 
-/// Returns early with the pipeline's `Error::Invalid`, built like `format!`.
-macro_rules! bail {
-    ($($arg:tt)*) => {
-        return Err(qean_pipeline::Error::Invalid(format!($($arg)*)))
-    };
-}
-
-/// [`bail!`] unless the condition holds.
-macro_rules! ensure {
-    ($cond:expr, $($arg:tt)*) => {
-        if !$cond {
-            bail!($($arg)*);
-        }
-    };
-}
-
 mod measures;
 mod peers;
 mod report;
@@ -159,7 +143,7 @@ fn run_child(
         .stderr(std::process::Stdio::inherit())
         .output()
         .with_context(|| format!("{}: cannot start the measure process", exe.display()))?;
-    ensure!(
+    qean_pipeline::ensure!(
         out.status.success(),
         "the {} measure process failed ({})",
         id.name(),

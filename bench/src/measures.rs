@@ -278,7 +278,7 @@ fn features(inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
         let t = Instant::now();
         let f = features_for_file(&inputs.track, &opts)?;
         times.push(t.elapsed().as_secs_f64());
-        ensure!(f.frames > 0, "no feature frames");
+        qean_pipeline::ensure!(f.frames > 0, "no feature frames");
     }
     Ok(Entry::time(
         MeasureId::Features,
@@ -307,7 +307,7 @@ fn metrics(inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
         let t = Instant::now();
         let report = evaluate(&generated, &reference, Some(&beats), &cfg)?;
         times.push(t.elapsed().as_secs_f64());
-        ensure!(report.fid_k.is_finite(), "FID_k is not finite");
+        qean_pipeline::ensure!(report.fid_k.is_finite(), "FID_k is not finite");
     }
     Ok(Entry::time(
         MeasureId::Metrics,
@@ -369,7 +369,7 @@ fn train(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> crate:
             0.0,
         );
         model = next;
-        ensure!(loss.is_finite(), "the benchmark loss is not finite");
+        qean_pipeline::ensure!(loss.is_finite(), "the benchmark loss is not finite");
         if k > 0 {
             times.push(t.elapsed().as_secs_f64());
         }
@@ -418,7 +418,7 @@ fn sampling(id: MeasureId, backend: &str, inputs: &Inputs, sizes: &Sizes) -> cra
     let t = Instant::now();
     let out = sample(&model, &device, &requests, &opts(frames), |_, _| {})?;
     let seconds = t.elapsed().as_secs_f64();
-    ensure!(
+    qean_pipeline::ensure!(
         out.len() == sizes.sequences,
         "sampler returned {} sequences",
         out.len()

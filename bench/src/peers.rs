@@ -136,7 +136,7 @@ impl Peers {
         if !out.status.success() {
             let stderr = String::from_utf8_lossy(&out.stderr);
             let last = stderr.lines().last().unwrap_or("no message");
-            bail!("peer of {} failed (`{cmd}`): {last}", id.name());
+            qean_pipeline::bail!("peer of {} failed (`{cmd}`): {last}", id.name());
         }
         parse_result(&stdout).with_context(|| format!("peer of {} (`{cmd}`)", id.name()))
     }
@@ -154,7 +154,7 @@ pub fn parse_result(stdout: &str) -> crate::Result<PeerResult> {
     let num = |k: &str| v.get(k).and_then(serde_json::Value::as_f64);
     let text = |k: &str| v.get(k).and_then(serde_json::Value::as_str).unwrap_or("");
     let value = num("value").context("no numeric `value`")?;
-    ensure!(
+    qean_pipeline::ensure!(
         value.is_finite() && value > 0.0,
         "`value` {value} is not a positive number"
     );

@@ -56,7 +56,7 @@ pub fn train(backend: &str, inputs: &Inputs, sizes: &Sizes) -> crate::Result<Ent
         let (next, value) =
             apply_update(model, &mut optim, loss, 1e-4, config.optim.grad_clip_norm);
         model = next;
-        ensure!(value.is_finite(), "the benchmark loss is not finite");
+        qean_pipeline::ensure!(value.is_finite(), "the benchmark loss is not finite");
         if k > 0 {
             times.push(start.elapsed().as_secs_f64());
         }

@@ -32,7 +32,7 @@ impl FrozenVq {
         })?;
         let checkpoint = crate::checkpoint::resolve(run)
             .map_err(|e| Error::msg(format!("gpt.vqvae_run: {e}")))?;
-        if !matches!(checkpoint.config.spec(), qean_config::ModelSpec::Vqvae(_)) {
+        let qean_config::ModelSpec::Vqvae(vq) = checkpoint.config.spec() else {
             return Err(Error::at(
                 &checkpoint.dir,
                 format!(
@@ -40,8 +40,7 @@ impl FrozenVq {
                     checkpoint.config.model.arch
                 ),
             ));
-        }
-        let vq = checkpoint.config.vq_table();
+        };
         if vq.codes != g.codes || vq.rate() != g.rate {
             return Err(Error::at(
                 &checkpoint.dir,

@@ -32,11 +32,6 @@ impl Error {
     pub fn invalid(message: impl Into<String>) -> Self {
         Error::Invalid(message.into())
     }
-
-    /// `checkpoint` is of another family than `what` ("an in-betweener"), which the caller needs.
-    pub(crate) fn not_family(checkpoint: &qean_checkpoint::Checkpoint, what: &str) -> Self {
-        checkpoint.not_family(what).into()
-    }
 }
 
 /// What was being done, put before an error that comes from outside the workspace (a child process, JSON,
@@ -64,11 +59,21 @@ impl<T> Context<T> for Option<T> {
     }
 }
 
-/// Returns early with [`Error::Invalid`] built like `format!`.
+/// Returns early with [`Error::Invalid`] built like `format!` (also for the crates above: qean-bench).
+#[macro_export]
 macro_rules! bail {
     ($($arg:tt)*) => {
         return Err($crate::Error::Invalid(format!($($arg)*)))
     };
 }
 
-pub(crate) use bail;
+/// [`bail!`] unless the condition holds.
+#[macro_export]
+macro_rules! ensure {
+    ($cond:expr, $($arg:tt)*) => {
+        if !$cond {
+            $crate::bail!($($arg)*);
+        }
+    };
+}
+pub use crate::{bail, ensure};

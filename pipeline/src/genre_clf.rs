@@ -18,7 +18,7 @@ use qean_motion::pos72::POS72;
 use serde::Serialize;
 
 use crate::evaluate::RunEvalRequest;
-use crate::{Error, Result};
+use crate::Result;
 
 /// A trained classifier on the CPU.
 pub struct TrainedClf {
@@ -31,7 +31,7 @@ impl TrainedClf {
     pub fn load(run: &Path, checkpoint: Option<&str>) -> Result<TrainedClf> {
         let checkpoint = qean_checkpoint::checkpoint::resolve_in_run(run, checkpoint)?;
         let FamilyModel::GenreClf(model) = checkpoint.load_family(&Device::flex())? else {
-            return Err(Error::not_family(&checkpoint, "a genre classifier"));
+            return Err(checkpoint.not_family("a genre classifier").into());
         };
         Ok(TrainedClf {
             config: checkpoint.config.genre_clf_table().clone(),

@@ -28,7 +28,7 @@ impl Trained {
     pub fn load(run: &Path) -> Result<Trained> {
         let checkpoint = resolve(run)?;
         let FamilyModel::Inbetween(model) = checkpoint.load_family(&Device::flex())? else {
-            return Err(Error::not_family(&checkpoint, "an in-betweener"));
+            return Err(checkpoint.not_family("an in-betweener").into());
         };
         let config = checkpoint.config.inbetween();
         Ok(Trained {

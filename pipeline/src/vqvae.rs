@@ -35,7 +35,7 @@ impl TrainedVq {
     pub fn load(run: &std::path::Path, checkpoint: Option<&str>) -> Result<TrainedVq> {
         let checkpoint = qean_checkpoint::checkpoint::resolve_in_run(run, checkpoint)?;
         let FamilyModel::Vqvae(model) = checkpoint.load_family(&Device::flex())? else {
-            return Err(Error::not_family(&checkpoint, "a VQ-VAE"));
+            return Err(checkpoint.not_family("a VQ-VAE").into());
         };
         Ok(TrainedVq { model, checkpoint })
     }
