@@ -187,6 +187,21 @@ fn tsmt_trains_resumes_samples_and_evaluates() {
         "unknown TSMT decoding `smooth`: expected one of bin, subbin, coherent, mean",
     );
     assert!(!bad.exists());
+    // Music standardised per track (`recipe.audio_norm = "per_track"`) trains and dances; split statistics
+    // are not a TSMT option: one line, nothing written.
+    let per_track = d.path().join("per-track");
+    let mut c = train(&data, &per_track, 3);
+    run_ok(c.args(["--set", "recipe.audio_norm=\"per_track\""]));
+    let text = sample(&per_track, &d.path().join("per-track-dance"), &[]);
+    assert!(text.contains("per 5 s: speed ratio"), "{text}");
+    let refused = d.path().join("standardized");
+    let mut c = train(&data, &refused, 3);
+    c.args(["--set", "recipe.audio_norm=\"standardize\""]);
+    assert_clean_failure(
+        &mut c,
+        "recipe.audio_norm = \"standardize\" is not a TSMT option",
+    );
+    assert!(!refused.exists());
 
     // Checkpoint-mode evaluation: the TSMT paper's keys in the report.
     let report = run_ok(

@@ -89,6 +89,11 @@ fn tiny_vq_vae_trains_resumes_exactly_and_is_scored() {
     );
     assert!(out.contains("root-relative MPJPE (cm)"), "{out}");
     assert!(out.contains("| decoded ground truth |"), "{out}");
+    assert!(
+        out.contains("Motion of the decoded ground truth against the data's")
+            && out.contains("speed ratio"),
+        "{out}"
+    );
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(straight.join("eval/step-6/report.json")).unwrap())
             .unwrap();

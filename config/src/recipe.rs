@@ -480,6 +480,34 @@ pub fn track_stats(data: &[f32], dim: usize) -> (Vec<f64>, Vec<f64>) {
 mod tests {
     use super::*;
 
+    /// `per_track` standardises each column over the track at any row width (TSMT's 26 MFCC/Δ columns as
+    /// well as the 35 features); a constant column maps to 0.
+    #[test]
+    fn per_track_standardises_each_column_of_any_width() {
+        let r = RecipeConfig {
+            audio_norm: AudioNorm::PerTrack,
+            ..RecipeConfig::default()
+        };
+        let dim = 26;
+        let data: Vec<f32> = (0..50 * dim)
+            .map(|i| {
+                if i % dim == 3 {
+                    7.0
+                } else {
+                    ((i * 37 % 101) as f32) * (1.0 + (i % dim) as f32) - 340.0
+                }
+            })
+            .collect();
+        let out = r.model_audio(data, dim);
+        let (mean, std) = track_stats(&out, dim);
+        for k in 0..dim {
+            assert!(mean[k].abs() < 1e-5, "column {k}: mean {}", mean[k]);
+            // The constant column maps to 0, whose SD track_stats reports as 1 too.
+            assert!((std[k] - 1.0).abs() < 1e-4, "column {k}: sd {}", std[k]);
+        }
+        assert!(out.chunks_exact(dim).all(|row| row[3] == 0.0));
+    }
+
     fn parse(text: &str) -> Result<RecipeConfig, String> {
         toml::from_str::<RecipeConfig>(text).map_err(|e| e.to_string())
     }

@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use qean_audio::delta::tsmt_audio;
+use qean_audio::delta::{tsmt_audio, TSMT_MFCC_DIM};
 use qean_checkpoint::checkpoint::Checkpoint;
 use qean_checkpoint::FamilyModel;
 use qean_config::tsmt::{TsmtConfig, TsmtDecode};
@@ -148,7 +148,8 @@ pub fn sample_motions(
         .map(|(data, frames)| {
             let (mfcc, beats) = tsmt_audio(data, *frames);
             grid.audio(&TsmtAudio {
-                mfcc,
+                // As the run heard music in training (`recipe.audio_norm`).
+                mfcc: ck.config.recipe.model_audio(mfcc, TSMT_MFCC_DIM),
                 beats,
                 frames: *frames,
             })

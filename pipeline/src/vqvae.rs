@@ -175,7 +175,8 @@ pub fn markdown(r: &VqEvaluation) -> String {
          The ceiling of every token model on this VQ-VAE (§7 on the decoded ground truth, corrected mode):\n\n\
          | | FID_k ↓ | FID_g ↓ | Dist_k | Dist_g | BeatAlign |\n|---|---|---|---|---|---|\n\
          | ground truth | - | - | {:.4} | {:.4} | {} |\n\
-         | decoded ground truth | {:.4} | {:.4} | {:.4} | {:.4} | {} |\n",
+         | decoded ground truth | {:.4} | {:.4} | {:.4} | {:.4} | {} |\n\n\
+         Motion of the decoded ground truth against the data's (a token model's dances inherit it): {}.\n",
         r.step,
         r.checkpoint.display(),
         r.sequences,
@@ -193,5 +194,11 @@ pub fn markdown(r: &VqEvaluation) -> String {
         m.div_k,
         m.div_g,
         m.beat_align.map_or("-".into(), |b| format!("{b:.4}")),
+        m.motion_energy.as_ref().map_or("not measured".into(), |e| format!(
+            "speed ratio {:.2}, acceleration ratio {:.2}, {:.0} % of 1-s windows frozen",
+            e.speed_ratio,
+            e.accel_ratio,
+            100.0 * e.freeze_fraction
+        )),
     )
 }

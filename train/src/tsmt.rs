@@ -14,6 +14,7 @@ use qean_aistpp::windows::{Batch, Sequence, SequenceSet, WindowSpec};
 use qean_audio::delta::{tsmt_audio, TSMT_MFCC_DIM};
 use qean_config::run::RunConfig;
 use qean_config::tsmt::{RootMode, TsmtConfig, WindowMode};
+use qean_config::AudioNorm;
 use qean_io::error::{Error, Result};
 use qean_models::tsmt::loss::{masked_cross_entropy, smoothed_cross_entropy};
 use qean_models::tsmt::{pose_coords, Bins, Tsmt, TsmtInput};
@@ -232,6 +233,12 @@ impl Family for TsmtFamily {
         train: Split,
         resume: Option<&Checkpoint>,
     ) -> Result<()> {
+        if config.recipe.audio_norm == AudioNorm::Standardize {
+            return Err(Error::msg(
+                "recipe.audio_norm = \"standardize\" is not a TSMT option (its MFCC + delta rows have no split \
+                 statistics): use \"none\" (the paper's) or \"per_track\"",
+            ));
+        }
         let t = config
             .tsmt
             .as_mut()
@@ -286,6 +293,8 @@ impl Family for TsmtFamily {
             },
             |features, frames| {
                 let (rows, beats) = tsmt_audio(features, frames);
+                // `recipe.audio_norm = "per_track"`: each MFCC/Δ column standardised over its track.
+                let rows = config.recipe.model_audio(rows, TSMT_MFCC_DIM);
                 rows.chunks_exact(TSMT_MFCC_DIM)
                     .zip(beats)
                     .flat_map(|(r, b)| r.iter().copied().chain([f32::from(b)]))
