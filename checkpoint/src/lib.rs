@@ -14,6 +14,7 @@ pub mod inbetween;
 pub mod progress;
 pub mod registry;
 pub mod run_dir;
+pub mod tsmt;
 pub mod vqvae;
 pub mod weights;
 

@@ -5,8 +5,8 @@
 
 use std::path::Path;
 
-use qean_audio::delta::{tsmt_audio, TSMT_MFCC_DIM};
 use qean_checkpoint::checkpoint::Checkpoint;
+use qean_checkpoint::tsmt::heard_audio;
 use qean_checkpoint::FamilyModel;
 use qean_config::tsmt::{TsmtConfig, TsmtDecode};
 use qean_io::error::{Error, Result};
@@ -146,10 +146,9 @@ pub fn sample_motions(
         .music
         .iter()
         .map(|(data, frames)| {
-            let (mfcc, beats) = tsmt_audio(data, *frames);
+            let (mfcc, beats) = heard_audio(data, *frames, &ck.config.recipe);
             grid.audio(&TsmtAudio {
-                // As the run heard music in training (`recipe.audio_norm`).
-                mfcc: ck.config.recipe.model_audio(mfcc, TSMT_MFCC_DIM),
+                mfcc,
                 beats,
                 frames: *frames,
             })

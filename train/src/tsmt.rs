@@ -11,7 +11,8 @@ use qean_aistpp::feature_cache;
 use std::sync::Arc;
 
 use qean_aistpp::windows::{Batch, Sequence, SequenceSet, WindowSpec};
-use qean_audio::delta::{tsmt_audio, TSMT_MFCC_DIM};
+use qean_audio::delta::TSMT_MFCC_DIM;
+use qean_checkpoint::tsmt::heard_audio;
 use qean_config::run::RunConfig;
 use qean_config::tsmt::{RootMode, TsmtConfig, WindowMode};
 use qean_config::AudioNorm;
@@ -292,9 +293,7 @@ impl Family for TsmtFamily {
                 Ok(tokens.into_iter().map(f32::from).collect())
             },
             |features, frames| {
-                let (rows, beats) = tsmt_audio(features, frames);
-                // `recipe.audio_norm = "per_track"`: each MFCC/Δ column standardised over its track.
-                let rows = config.recipe.model_audio(rows, TSMT_MFCC_DIM);
+                let (rows, beats) = heard_audio(features, frames, &config.recipe);
                 rows.chunks_exact(TSMT_MFCC_DIM)
                     .zip(beats)
                     .flat_map(|(r, b)| r.iter().copied().chain([f32::from(b)]))
