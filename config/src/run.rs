@@ -108,7 +108,8 @@ pub struct TrainConfig {
     pub val_every: u64,
     /// Checkpoints kept: the last `keep_last`, plus the best by validation loss.
     pub keep_last: usize,
-    /// Backend the run trains on: flex (CPU, default), ndarray (CPU) or wgpu (GPU, needs the `wgpu` build).
+    /// Backend the run trains on: flex (CPU, default), ndarray (CPU; needs the `ndarray` build) or wgpu (GPU;
+    /// needs the `wgpu` build).
     pub backend: crate::Backend,
 }
 

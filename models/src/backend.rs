@@ -1,7 +1,7 @@
 //! Backend choice at run time: Burn 0.22 selects the backend through its `Device` value
 //! (BURN_NOTES), so `--backend` is a match that builds one. flex is the default CPU backend;
-//! ndarray is kept for cross-checks (deprecated upstream); wgpu (Vulkan/Metal/GL) needs this
-//! crate's `wgpu` cargo feature.
+//! ndarray (deprecated upstream) is kept for cross-checks behind this crate's `ndarray` cargo
+//! feature; wgpu (Vulkan/Metal/GL) needs its `wgpu` feature.
 
 use burn::tensor::Device;
 
@@ -14,10 +14,22 @@ pub use qean_config::{Backend, BACKENDS, DEFAULT_BACKEND};
 pub fn device(backend: Backend) -> Result<Device, Error> {
     match backend {
         Backend::Flex => Ok(Device::flex()),
-        #[allow(deprecated)] // Still the independent CPU backend to cross-check flex against.
-        Backend::Ndarray => Ok(Device::ndarray()),
+        Backend::Ndarray => ndarray_device(),
         Backend::Wgpu => wgpu_device(),
     }
+}
+
+#[cfg(not(feature = "ndarray"))]
+fn ndarray_device() -> Result<Device, Error> {
+    Err(Error::Backend(
+        "backend `ndarray` is not in this build: rebuild with `--features ndarray`".into(),
+    ))
+}
+
+#[cfg(feature = "ndarray")]
+#[allow(deprecated)] // Still the independent CPU backend to cross-check flex against.
+fn ndarray_device() -> Result<Device, Error> {
+    Ok(Device::ndarray())
 }
 
 /// The device of a backend named on the command line; a one-line error for an unknown name too.
@@ -79,7 +91,12 @@ mod tests {
 
     #[test]
     fn cpu_backends_compute() {
-        for name in ["flex", "ndarray"] {
+        let names: &[&str] = if cfg!(feature = "ndarray") {
+            &["flex", "ndarray"]
+        } else {
+            &["flex"]
+        };
+        for &name in names {
             let device = device_named(name).unwrap();
             let s = Tensor::<1>::ones([3], &device).sum().into_scalar::<f32>();
             assert_eq!(s, 3.0, "{name}");
@@ -96,6 +113,10 @@ mod tests {
         if !cfg!(feature = "wgpu") {
             let e = device(Backend::Wgpu).unwrap_err().to_string();
             assert!(e.contains("--features wgpu") && !e.contains('\n'), "{e}");
+        }
+        if !cfg!(feature = "ndarray") {
+            let e = device(Backend::Ndarray).unwrap_err().to_string();
+            assert!(e.contains("--features ndarray") && !e.contains('\n'), "{e}");
         }
     }
 }

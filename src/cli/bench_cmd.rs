@@ -19,7 +19,7 @@ use qean_bench::{self as bench, BenchOptions, MeasureId, Peers};
 ///
 /// Examples:
 ///   qean bench --quick
-///   qean bench --only train-tiny,sample-tiny --backends flex,ndarray
+///   qean bench --only train-tiny,sample-tiny --backends flex,wgpu
 ///   qean bench --only train-tsmt,sample-tsmt
 ///   qean bench --peers --torch-python torch/bin/python --librosa-python lr/bin/python --json b.json
 #[derive(Args, Debug)]
@@ -33,7 +33,8 @@ pub struct BenchArgs {
     /// sample-mint, train-tsmt, sample-tsmt. Default: all (with --quick: the four tiny ones).
     #[arg(long, value_delimiter = ',')]
     pub only: Vec<String>,
-    /// Backends for the model measures, each measured (flex, ndarray, wgpu).
+    /// Backends for the model measures, each measured (flex; ndarray and wgpu in builds with their
+    /// cargo features).
     #[arg(long, value_delimiter = ',', default_value = "flex")]
     pub backends: Vec<String>,
     /// Also run the peers in bench/peer/ and report ours/peer ratios.

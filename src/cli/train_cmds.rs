@@ -41,7 +41,8 @@ pub struct TrainArgs {
     /// Dataset directory (AIST++ layout); the same as --set data.dir=DIR.
     #[arg(long)]
     pub data: Option<PathBuf>,
-    /// Backend: flex (CPU, default), ndarray (CPU), wgpu (GPU; needs a build with --features wgpu).
+    /// Backend: flex (CPU, default), ndarray (CPU, to cross-check flex), wgpu (GPU); the last two
+    /// need a build with --features ndarray or --features wgpu.
     #[arg(long, value_enum)]
     pub backend: Option<qean_models::backend::Backend>,
     /// Override any config field: --set train.steps=100 --set model.dropout=0.2 (repeatable).
