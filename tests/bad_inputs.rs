@@ -339,7 +339,7 @@ fn every_bad_input_fails_cleanly_and_changes_nothing() {
         ])
     };
 
-    let cases: Vec<(&str, Command, String)> = vec![
+    let mut cases: Vec<(&str, Command, String)> = vec![
         // Audio.
         (
             "corrupt wav",
@@ -601,6 +601,24 @@ fn every_bad_input_fails_cleanly_and_changes_nothing() {
             "inputs".into(),
         ),
     ];
+    // A backend this build lacks (the test command builds with wgpu, not with ndarray).
+    if !cfg!(feature = "ndarray") {
+        cases.push((
+            "a backend not in this build",
+            cmd(&[
+                &"train",
+                &"--config",
+                &configs().join("tiny/fact.toml"),
+                &"--data",
+                &data,
+                &"--run-dir",
+                &w.root.join("new-run"),
+                &"--backend",
+                &"ndarray",
+            ]),
+            "--features ndarray".into(),
+        ));
+    }
 
     let mut failures = Vec::new();
     let total = cases.len();
