@@ -325,6 +325,22 @@ fn every_bad_input_fails_cleanly_and_changes_nothing() {
             &w.root.join("new-run"),
         ])
     };
+    // Tiny FACT on the good dataset into a new run, with the case's own arguments after.
+    let train_fact = |extra: &[&dyn AsRefOs]| {
+        let mut c = cmd(&[
+            &"train",
+            &"--config",
+            &configs().join("tiny/fact.toml"),
+            &"--data",
+            &data,
+            &"--run-dir",
+            &w.root.join("new-run"),
+        ]);
+        for a in extra {
+            c.arg(a.os());
+        }
+        c
+    };
     let sample = |music: &PathBuf| {
         cmd(&[
             &"sample",
@@ -501,17 +517,7 @@ fn every_bad_input_fails_cleanly_and_changes_nothing() {
         ),
         (
             "unknown --set key",
-            cmd(&[
-                &"train",
-                &"--config",
-                &configs().join("tiny/fact.toml"),
-                &"--data",
-                &data,
-                &"--run-dir",
-                &w.root.join("new-run"),
-                &"--set",
-                &"train.stepz=3",
-            ]),
+            train_fact(&[&"--set", &"train.stepz=3"]),
             "unknown field `stepz`".into(),
         ),
         (
@@ -605,17 +611,7 @@ fn every_bad_input_fails_cleanly_and_changes_nothing() {
     if !cfg!(feature = "ndarray") {
         cases.push((
             "a backend not in this build",
-            cmd(&[
-                &"train",
-                &"--config",
-                &configs().join("tiny/fact.toml"),
-                &"--data",
-                &data,
-                &"--run-dir",
-                &w.root.join("new-run"),
-                &"--backend",
-                &"ndarray",
-            ]),
+            train_fact(&[&"--backend", &"ndarray"]),
             "--features ndarray".into(),
         ));
     }
