@@ -9,7 +9,7 @@
 #
 # DEMO: a `qean demo` output (its data/ is used), SONGS: tools/debian_songs.sh's directory, OUT: where the
 # runs go; seeds default to 0 1 2; KEY=VALUE pairs after `--` are extra `--set`s of the stage (the GPT's,
-# not its VQ-VAE's). QEAN=path/to/qean picks the binary (default: target/release/qean, then target/debug).
+# not its VQ-VAE's; VQ_SET="KEY=VALUE ..." gives the VQ-VAE's). QEAN=path/to/qean picks the binary (default: target/release/qean, then target/debug).
 # Example (docs/freezing.md, section 7): tools/stage_seeds.sh gpt qean-demo songs seeds/gpt 0 1 2
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -33,6 +33,10 @@ common=(--set "data.dir=\"$data\"" --set train.steps=3000 --set train.checkpoint
   --set train.val_every=750 --set train.log_every=100 --set train.batch_size=8 --set model.motion_len=30
   --set model.audio_len=60 --set "schedule.boundaries=[2250]")
 lr=(--set schedule.initial=1e-3 --set "schedule.values=[1e-4]")
+# The demo's VQ-VAE keeps LR 1e-3 to its end (docs/control.md); VQ_SET="KEY=VALUE ..." adds --sets to it.
+vq_lr=(--set schedule.initial=1e-3 --set "schedule.values=[1e-3]")
+vq_extra=()
+for e in ${VQ_SET:-}; do vq_extra+=(--set "$e"); done
 train() { # run-dir log config args...
   local dir="$1" log="$2" config="$3"; shift 3
   if [ ! -d "$dir/checkpoints/step-3000" ]; then
@@ -52,7 +56,8 @@ for seed in "${seeds[@]}"; do
   case "$stage" in
     gpt)
       vq="$out/vq-s$seed"
-      train "$vq" "$vq.log" configs/control/vqvae_tiny.toml "${common[@]}" "${lr[@]}" --set train.seed="$seed"
+      train "$vq" "$vq.log" configs/control/vqvae_tiny.toml "${common[@]}" "${vq_lr[@]}" --set train.seed="$seed" \
+        "${vq_extra[@]}"
       run="$out/gpt-s$seed"
       train "$run" "$run.log" configs/control/gpt_tiny.toml "${common[@]}" "${lr[@]}" --set train.seed="$seed" \
         --set "gpt.vqvae_run=\"$vq\"" "${extra[@]}" ;;

@@ -382,7 +382,15 @@ fn plan<'a>(
     for (name, _, preset) in presets {
         let steps = opts.budget.steps_for(name);
         let mut overrides = overrides(&opts.budget, data, name, steps);
-        if *name == VQ || *name == GPT {
+        if *name == VQ {
+            // A constant LR 1e-3: the 1e-4 tail left codebooks whose decoded ground truth moved at
+            // 0.64–0.85× its speed, and GPTs over them froze (docs/control.md, "Why the GPT froze").
+            overrides.extend([
+                "schedule.initial=1e-3".into(),
+                "schedule.values=[1e-3]".into(),
+            ]);
+        }
+        if *name == GPT {
             // LR 1e-3 then 1e-4 (the presets' CI-sized 300 steps start lower).
             overrides.extend([
                 "schedule.initial=1e-3".into(),
