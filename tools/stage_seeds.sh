@@ -9,7 +9,8 @@
 #
 # DEMO: a `qean demo` output (its data/ is used), SONGS: tools/debian_songs.sh's directory, OUT: where the
 # runs go; seeds default to 0 1 2; KEY=VALUE pairs after `--` are extra `--set`s of the stage (the GPT's,
-# not its VQ-VAE's; VQ_SET="KEY=VALUE ..." gives the VQ-VAE's). QEAN=path/to/qean picks the binary (default: target/release/qean, then target/debug).
+# not its VQ-VAE's; VQ_SET="KEY=VALUE ..." gives the VQ-VAE's). QEAN=path/to/qean picks the binary
+# (default: target/release/qean, then target/debug).
 # Example (docs/freezing.md, section 7): tools/stage_seeds.sh gpt qean-demo songs seeds/gpt 0 1 2
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"

@@ -384,7 +384,7 @@ fn plan<'a>(
         let mut overrides = overrides(&opts.budget, data, name, steps);
         if *name == VQ {
             // A constant LR 1e-3: the 1e-4 tail left codebooks whose decoded ground truth moved at
-            // 0.64–0.85× its speed, and GPTs over them froze (docs/control.md, "Why the GPT froze").
+            // 0.64–0.85× its speed, and GPTs over them froze (docs/control.md, "Three training seeds").
             overrides.extend([
                 "schedule.initial=1e-3".into(),
                 "schedule.values=[1e-3]".into(),
