@@ -115,6 +115,14 @@ pub struct Args {
     /// (1 = off; default: the run's gpt.repetition_penalty).
     #[arg(long, requires = "run")]
     pub repetition_penalty: Option<f64>,
+    /// Checkpoint mode, GPT: the decoded dance's lowest point pinned to the seed's floor over windows of N
+    /// frames (0 = off; default: the run's gpt.floor_window).
+    #[arg(long, requires = "run")]
+    pub floor_window: Option<usize>,
+    /// Checkpoint mode, GPT: the planted feet's slow glide taken away over windows of N frames (0 = off;
+    /// default: the run's gpt.slide_window).
+    #[arg(long, requires = "run")]
+    pub slide_window: Option<usize>,
     /// Checkpoint mode, TSMT: seed of the draws (S-music-D's extra rollouts use the next seeds).
     #[arg(long, requires = "run", default_value_t = 0)]
     pub sample_seed: u64,
@@ -278,6 +286,8 @@ impl Args {
                     .transpose()
                     .map_err(|e: String| anyhow::anyhow!("--decode: {e}"))?,
                 repetition_penalty: self.repetition_penalty,
+                floor_window: self.floor_window,
+                slide_window: self.slide_window,
                 sample_seed: self.sample_seed,
                 music_rollouts: self.music_rollouts,
             },

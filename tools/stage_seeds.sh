@@ -9,7 +9,8 @@
 #
 # DEMO: a `qean demo` output (its data/ is used), SONGS: tools/debian_songs.sh's directory, OUT: where the
 # runs go; seeds default to 0 1 2; KEY=VALUE pairs after `--` are extra `--set`s of the stage (the GPT's,
-# not its VQ-VAE's; VQ_SET="KEY=VALUE ..." gives the VQ-VAE's). QEAN=path/to/qean picks the binary
+# not its VQ-VAE's; VQ_SET="KEY=VALUE ..." gives the VQ-VAE's; SAMPLE_SET="--flag value ..." adds
+# `qean sample` flags, e.g. SAMPLE_SET="--floor-window 0"). QEAN=path/to/qean picks the binary
 # (default: target/release/qean, then target/debug).
 # Example (docs/freezing.md, section 7): tools/stage_seeds.sh gpt qean-demo songs seeds/gpt 0 1 2
 set -euo pipefail
@@ -70,8 +71,9 @@ for seed in "${seeds[@]}"; do
   row="| $stage seed $seed |" n=0
   for song in "${list[@]}"; do
     dances="$(mktemp -d)"
+    # shellcheck disable=SC2086 # SAMPLE_SET is split into flags on purpose
     line="$("$Q" sample --run "$run" --music "$song" --data "$data" --sequence "$seq" --frames 1200 \
-      --out "$dances" 2>&1 | grep 'per 5 s:' || true)"
+      --out "$dances" ${SAMPLE_SET:-} 2>&1 | grep 'per 5 s:' || true)"
     rm -rf "$dances"
     cell="$(python3 - "$line" <<'PY'
 import re, sys

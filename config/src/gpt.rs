@@ -62,6 +62,13 @@ pub struct GptConfig {
     /// (1 = off, the paper's picking; CTRL's repetition penalty).
     pub repetition_penalty: f64,
     pub repetition_window: usize,
+    /// Decoding, ours: the decoded dance's lowest point pinned to the seed's floor over windows of this many
+    /// frames (0 = off, the paper's decoding): the root integrated from decoded velocities otherwise sinks
+    /// through the floor (`qean_motion::floor`; docs/control.md, "Feet on the floor").
+    pub floor_window: usize,
+    /// Decoding, ours: the slow glide of the planted feet (the same bias, sideways) taken away over windows
+    /// of this many frames (0 = off, the paper's decoding; `qean_motion::floor::stop_sliding`).
+    pub slide_window: usize,
     /// SPEC §13.2.6 option: the training split is also tokenised from frame offsets 1..rate−1 (the music
     /// shifted alike), so the GPT sees `rate` different token sequences of each dance instead of one.
     pub token_shift_aug: bool,
@@ -99,6 +106,8 @@ impl GptConfig {
             temperature: 1.0,
             repetition_penalty: 1.0,
             repetition_window: 8,
+            floor_window: 0,
+            slide_window: 0,
             token_shift_aug: false,
         }
     }

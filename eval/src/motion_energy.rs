@@ -12,6 +12,9 @@
 //! every sequence (a long sequence weighs more). A 1-s window is 60 consecutive speed samples
 //! (frames [60k, 60k + 61)); a sequence shorter than that counts as one window of what it has.
 //! The same numbers are reported per 5-s span (300 speed samples; the last span may be shorter).
+//!
+//! `root_drift`: how far the root (joint 0) gets in 10 s, sideways and up or down — what the speed misses
+//! when a dance glides or sinks through the floor slowly (docs/control.md, "Feet on the floor").
 //! Plain f64, no Burn.
 
 use serde::{Deserialize, Serialize};
@@ -27,6 +30,43 @@ pub const WINDOW: usize = 60;
 pub const SPAN: usize = 300;
 /// A window is frozen below this share of the reference median window speed.
 pub const FREEZE_SHARE: f64 = 0.2;
+
+/// Frames of one root-drift window (10 s), and the stride between windows (1 s).
+pub const DRIFT_WINDOW: usize = 600;
+pub const DRIFT_STRIDE: usize = 60;
+
+/// How far the root (joint 0) moves within 10 s: over every window of `DRIFT_WINDOW` + 1 frames starting
+/// each `DRIFT_STRIDE` frames (a shorter sequence is one window of all its frames), the mean horizontal
+/// distance and the mean height change between the window's first and last frame, m.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct RootDrift {
+    pub horizontal: f64,
+    pub vertical: f64,
+    pub windows: usize,
+}
+
+/// The root drift of a set of sequences (every window of every sequence of at least 2 frames weighs the
+/// same).
+pub fn root_drift<'a>(sequences: impl IntoIterator<Item = &'a [Frame]>) -> RootDrift {
+    let (mut h, mut v, mut n) = (0.0, 0.0, 0usize);
+    for joints in sequences {
+        if joints.len() < 2 {
+            continue;
+        }
+        let span = DRIFT_WINDOW.min(joints.len() - 1);
+        for start in (0..joints.len() - span).step_by(DRIFT_STRIDE) {
+            let (a, b) = (joints[start][0], joints[start + span][0]);
+            h += (b[0] - a[0]).hypot(b[2] - a[2]);
+            v += (b[1] - a[1]).abs();
+            n += 1;
+        }
+    }
+    RootDrift {
+        horizontal: average(h, n),
+        vertical: average(v, n),
+        windows: n,
+    }
+}
 
 /// Mean joint speed (m/s) between consecutive frames: T − 1 values.
 pub fn joint_speeds(joints: &[Frame]) -> Vec<f64> {
@@ -530,5 +570,32 @@ mod tests {
         let (_, e) = motion_energy([noisy.as_slice()], &reference);
         assert!(e.verdict().jitters);
         assert!(e.accel_ratio > 2.0);
+    }
+
+    #[test]
+    fn root_drift_sees_a_glide_and_a_sink_but_not_a_sway() {
+        // 20 s: swaying ±5 cm at 1 Hz in place; gliding 6 cm/s sideways; sinking 4 cm/s.
+        let frames = 1200;
+        let sway = |t: usize| 0.05 * (t as f64 / 60.0 * std::f64::consts::TAU).sin();
+        let seq = |f: &dyn Fn(usize) -> [f64; 3]| -> Vec<Frame> {
+            (0..frames).map(|t| [f(t); 24]).collect()
+        };
+        let still = root_drift([seq(&|t| [sway(t), 1.0, 0.0]).as_slice()]);
+        assert!(
+            still.horizontal < 1e-9 && still.vertical < 1e-9,
+            "{still:?}"
+        );
+        assert_eq!(still.windows, 10);
+        let glide = root_drift([seq(&|t| [sway(t), 1.0, 0.001 * t as f64]).as_slice()]);
+        assert!((glide.horizontal - 0.6).abs() < 1e-9, "{glide:?}");
+        let sink = root_drift([seq(&|t| [0.0, 1.0 - 0.04 * t as f64 / 60.0, 0.0]).as_slice()]);
+        assert!(
+            (sink.vertical - 0.4).abs() < 1e-9 && sink.horizontal == 0.0,
+            "{sink:?}"
+        );
+        // A 5-s sequence is one window of all its frames.
+        let short = root_drift([seq(&|t| [0.001 * t as f64, 1.0, 0.0])[..300].as_ref()]);
+        assert_eq!(short.windows, 1);
+        assert!((short.horizontal - 0.299).abs() < 1e-9);
     }
 }

@@ -473,11 +473,14 @@ pub fn evaluate(
     // Motion energy: the evaluated frames against the whole reference set (raw positions:
     // differences do not depend on the zero-start).
     let energy_reference = EnergyReference::fit(refs.iter().map(|s| s.joints.as_slice()));
-    let (seq_energy, set_energy) = motion_energy(
+    let evaluated = || {
         gen.iter()
-            .map(|(s, len)| &s.joints[cfg.seed_frames..cfg.seed_frames + len]),
-        &energy_reference,
-    );
+            .map(|(s, len)| &s.joints[cfg.seed_frames..cfg.seed_frames + len])
+    };
+    let (seq_energy, set_energy) = motion_energy(evaluated(), &energy_reference);
+    let root_drift = crate::motion_energy::root_drift(evaluated());
+    let reference_root_drift =
+        crate::motion_energy::root_drift(refs.iter().map(|s| s.joints.as_slice()));
 
     let (ba_b, n_b) = mean_of(scores.iter().map(|s| s.and_then(|s| s.bailando)));
     let (ba_m, n_m) = mean_of(scores.iter().map(|s| s.and_then(|s| s.mint)));
@@ -512,6 +515,8 @@ pub fn evaluate(
         constant_reference_dims_g: norm_g.constant_dims(),
         motion_energy: Some(set_energy),
         energy_reference: Some(energy_reference),
+        root_drift: Some(root_drift),
+        reference_root_drift: Some(reference_root_drift),
         sequences,
         excluded,
         exploded,

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{value_name, EvalConfig};
 use crate::error::{Error, Result};
 use crate::li_metrics::LiMetrics;
-use crate::motion_energy::{EnergyReference, MotionEnergy};
+use crate::motion_energy::{EnergyReference, MotionEnergy, RootDrift};
 
 /// Per generated sequence: its evaluated length, BeatAlign under both variants and the raw
 /// (unnormalised) features.
@@ -78,6 +78,11 @@ pub struct MetricsReport {
     pub motion_energy: Option<MotionEnergy>,
     #[serde(default)]
     pub energy_reference: Option<EnergyReference>,
+    /// How far the generated frames' root gets in 10 s, and the reference set's.
+    #[serde(default)]
+    pub root_drift: Option<RootDrift>,
+    #[serde(default)]
+    pub reference_root_drift: Option<RootDrift>,
     pub sequences: Vec<SequenceMetrics>,
     pub excluded: Vec<Exclusion>,
     /// Generated dances that exploded (held at their last plausible frame for every metric).
@@ -126,6 +131,15 @@ impl MetricsReport {
         };
         if let Some(e) = &self.motion_energy {
             named.extend(energy("", e));
+        }
+        for (name, d) in [
+            ("root_drift", &self.root_drift),
+            ("reference_root_drift", &self.reference_root_drift),
+        ] {
+            if let Some(d) = d {
+                named.push((format!("{name} horizontal"), d.horizontal));
+                named.push((format!("{name} vertical"), d.vertical));
+            }
         }
         named.extend(self.li.named().into_iter().map(|(k, v)| (k.to_string(), v)));
         for s in &self.sequences {
@@ -221,6 +235,7 @@ pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
         ]
         .into_iter()
         .flatten()
+        .chain(drift_note(r))
         .collect();
         if !notes.is_empty() {
             out.push_str(&format!("- {name}: {}\n", notes.join("; ")));
@@ -244,6 +259,16 @@ pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
         ));
     }
     out
+}
+
+/// "root drift in 10 s: …" for a report that has it.
+fn drift_note(r: &MetricsReport) -> Option<String> {
+    let (d, g) = (r.root_drift?, r.reference_root_drift?);
+    Some(format!(
+        "root drift in 10 s: {:.2} m sideways, {:.2} m up or down (reference {:.2} m, {:.2} m; a glide or a \
+         sink through the floor the speed ratios miss)",
+        d.horizontal, d.vertical, g.horizontal, g.vertical
+    ))
 }
 
 /// The second block: the TSMT paper's metrics (SPEC §11.9–11.11).

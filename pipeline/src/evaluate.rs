@@ -46,6 +46,10 @@ pub struct SamplingOverrides {
     pub decode: Option<qean_config::tsmt::TsmtDecode>,
     /// GPT: the repetition penalty (None: the run's `gpt.repetition_penalty`).
     pub repetition_penalty: Option<f64>,
+    /// GPT: the floor's window (None: the run's `gpt.floor_window`; 0 = off).
+    pub floor_window: Option<usize>,
+    /// GPT: the feet's glide window (None: the run's `gpt.slide_window`; 0 = off).
+    pub slide_window: Option<usize>,
     pub sample_seed: u64,
     pub music_rollouts: Option<usize>,
 }
@@ -503,7 +507,13 @@ fn sample_gpt(
     let dim = qean_aistpp::windows::AUDIO_DIM;
     let g = ck.config.gpt_table();
     let mut run = crate::gpt::GptRun::load(ck)?;
-    run.seam_frames = opts.seam_frames;
+    run.decoding.seam_frames = opts.seam_frames;
+    if let Some(w) = req.sampling.floor_window {
+        run.decoding.floor_window = w;
+    }
+    if let Some(w) = req.sampling.slide_window {
+        run.decoding.slide_window = w;
+    }
     let picking = crate::gpt::Picking::of(g, &req.sampling.picking(), draw_seed);
     let mut out = Vec::new();
     for (i, r) in requests.iter().enumerate() {
@@ -695,8 +705,16 @@ fn sampler_label(req: &RunEvalRequest, config: &qean_config::RunConfig) -> Optio
     if config.gpt.is_some() {
         let g = config.gpt_table();
         let p = crate::gpt::Picking::of(g, &s.picking(), s.sample_seed);
+        let floor = match s.floor_window.unwrap_or(g.floor_window) {
+            0 => "floor not pinned".to_string(),
+            w => format!("lowest point pinned to the seed's floor over {w} frames"),
+        };
+        let floor = match s.slide_window.unwrap_or(g.slide_window) {
+            0 => format!("{floor}, feet's glide kept"),
+            w => format!("{floor}, feet's glide taken away over {w} frames"),
+        };
         return Some(format!(
-            "GPT picking top-k {}, temperature {}, repetition penalty {} over {} tokens, draw seed {}",
+            "GPT picking top-k {}, temperature {}, repetition penalty {} over {} tokens, draw seed {}; {floor}",
             p.top_k, p.temperature, p.repetition_penalty, p.repetition_window, p.seed
         ));
     }

@@ -123,6 +123,10 @@ pub struct GenerateOptions {
     pub decode: Option<qean_config::tsmt::TsmtDecode>,
     /// GPT: the repetition penalty (None: the run's `gpt.repetition_penalty`).
     pub repetition_penalty: Option<f64>,
+    /// GPT: the floor's window (None: the run's `gpt.floor_window`; 0 = off).
+    pub floor_window: Option<usize>,
+    /// GPT: the feet's glide window (None: the run's `gpt.slide_window`; 0 = off).
+    pub slide_window: Option<usize>,
     pub sample_seed: u64,
     /// Genre control (genre-control GPT runs): the genre and the seed of z.
     pub genre: Option<crate::gpt::GenreChoice>,

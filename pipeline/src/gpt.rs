@@ -214,10 +214,22 @@ pub fn sample_tokens(
     tokens
 }
 
+/// How decoded tokens become a dance after the seed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Decoding {
+    /// Frames over which the body eases out of the seed's last pose (`recipe.seam_frames`).
+    pub seam_frames: usize,
+    /// Window of the floor pinning (`gpt.floor_window`; 0 = off).
+    pub floor_window: usize,
+    /// Window of the feet's glide removal (`gpt.slide_window`; 0 = off).
+    pub slide_window: usize,
+}
+
 /// The dance of `tokens`: the seed motion as given, then the decoded frames after it (every token decoded,
 /// the root integrated and continued from the seed's last frame, the body eased out of the seed's last pose
-/// over `seam_frames` frames), rotations by IK.
-pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize], seam_frames: usize) -> Motion {
+/// over `seam_frames` frames, its lowest point pinned to the seed's floor over `floor_window` frames and its
+/// feet's glide taken away over `slide_window` frames), rotations by IK.
+pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize], d: Decoding) -> Motion {
     let c = vq.checkpoint.config.vq_table();
     let n = tokens.len();
     let mut rows = VqVae::host_rows(&vq.model.decode_tokens(tokens, 1, n));
@@ -237,7 +249,12 @@ pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize], seam_frames:
     // The body is off by the same reconstruction error (about 5 cm, one frame: a 2–3 m/s spike at the
     // seam); `recipe.seam_frames` fades it out (qean_motion::seam).
     let seed_last = &seed_joints[last..last + 24];
-    qean_motion::seam::ease_joints(&mut joints, seed.frames - 1, seed_last, seam_frames);
+    qean_motion::seam::ease_joints(&mut joints, seed.frames - 1, seed_last, d.seam_frames);
+    // The integrated root drifts with the decoded velocities' bias (the demo's dances sank 35–50 cm and
+    // glided 0.8 m in 10 s); the seed's lowest joint is the floor.
+    let floor = qean_motion::floor::floor_of(&seed_joints);
+    qean_motion::floor::pin_to_floor(&mut joints, seed.frames, floor, d.floor_window);
+    qean_motion::floor::stop_sliding(&mut joints, seed.frames, floor, d.slide_window);
     let tail = motion_from_joints(
         &joints[seed.frames * 24..],
         Default::default(),
@@ -256,9 +273,9 @@ pub struct GptRun {
     pub model: Gpt,
     pub genre: Option<(GenreModule, usize)>,
     pub vq: FrozenVq,
-    /// Frames over which the seam between the seed and the decoded dance fades (the run's
-    /// `recipe.seam_frames` unless a command line says otherwise).
-    pub seam_frames: usize,
+    /// The seam's frames and the floor's window (the run's `recipe.seam_frames` and `gpt.floor_window`
+    /// unless a command line says otherwise).
+    pub decoding: Decoding,
 }
 
 impl GptRun {
@@ -273,7 +290,11 @@ impl GptRun {
             model,
             genre,
             vq,
-            seam_frames: ck.config.recipe.seam_frames,
+            decoding: Decoding {
+                seam_frames: ck.config.recipe.seam_frames,
+                floor_window: ck.config.gpt_table().floor_window,
+                slide_window: ck.config.gpt_table().slide_window,
+            },
         })
     }
 
@@ -321,7 +342,7 @@ impl GptRun {
             picking,
             progress,
         );
-        let motion = decode_dance(&self.vq, seed, &tokens, self.seam_frames);
+        let motion = decode_dance(&self.vq, seed, &tokens, self.decoding);
         Ok(Some(
             motion.slice(0, (seed.frames + frames).min(motion.frames)),
         ))
@@ -339,7 +360,13 @@ pub fn generate(
 ) -> Result<Vec<Generated>> {
     let g = ck.config.gpt_table();
     let mut run = GptRun::load(ck)?;
-    run.seam_frames = opts.seam_frames;
+    run.decoding.seam_frames = opts.seam_frames;
+    if let Some(w) = opts.floor_window {
+        run.decoding.floor_window = w;
+    }
+    if let Some(w) = opts.slide_window {
+        run.decoding.slide_window = w;
+    }
     let picking = Picking::of(
         g,
         &PickingOverrides {

@@ -112,6 +112,16 @@ pub struct SampleArgs {
     /// picking (1 = off, Bailando's picking; default: the run's gpt.repetition_penalty).
     #[arg(long)]
     pub repetition_penalty: Option<f64>,
+    /// GPT: pin the decoded dance's lowest point to the seed's floor over windows of N frames, so a root
+    /// integrated from decoded velocities does not sink through the floor (0 = off, the paper's decoding;
+    /// default: the run's gpt.floor_window).
+    #[arg(long)]
+    pub floor_window: Option<usize>,
+    /// GPT: take the slow glide of the planted feet away over windows of N frames (the decoded root's bias
+    /// also slides the dance sideways; a dance that travels by stepping keeps its travel) (0 = off, the
+    /// paper's decoding; default: the run's gpt.slide_window).
+    #[arg(long)]
+    pub slide_window: Option<usize>,
     /// TSMT and GPT: seed of the draws.
     #[arg(long, default_value_t = 0)]
     pub sample_seed: u64,
@@ -184,6 +194,8 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         top_k: a.top_k,
         decode,
         repetition_penalty: a.repetition_penalty,
+        floor_window: a.floor_window,
+        slide_window: a.slide_window,
         sample_seed: a.sample_seed,
         genre,
     };

@@ -391,15 +391,13 @@ fn plan<'a>(
             ]);
         }
         if *name == GPT {
-            // LR 1e-3 then 1e-4 (the presets' CI-sized 300 steps start lower).
+            // LR 1e-3 then 1e-4 (the presets' CI-sized 300 steps start lower), over the demo's VQ-VAE.
+            let vq = opts.out.join("runs").join(VQ);
             overrides.extend([
                 "schedule.initial=1e-3".into(),
                 "schedule.values=[1e-4]".into(),
+                string_override("gpt.vqvae_run", &vq.to_string_lossy()),
             ]);
-        }
-        if *name == GPT {
-            let vq = opts.out.join("runs").join(VQ);
-            overrides.push(string_override("gpt.vqvae_run", &vq.to_string_lossy()));
         }
         if *name == GENRE {
             let gpt = opts.out.join("runs").join(GPT);
@@ -600,6 +598,8 @@ fn dance(
             top_k: None,
             decode: None,
             repetition_penalty: None,
+            floor_window: None,
+            slide_window: None,
             sample_seed: 0,
             genre,
         },
