@@ -55,6 +55,16 @@ pub struct SamplingOverrides {
 }
 
 impl SamplingOverrides {
+    /// A GPT run's decoding (its `recipe.seam_frames`, `gpt.floor_window`, `gpt.slide_window`) with these
+    /// overrides applied.
+    pub fn decoding(&self, run: crate::gpt::Decoding) -> crate::gpt::Decoding {
+        crate::gpt::Decoding {
+            seam_frames: self.seam_frames.unwrap_or(run.seam_frames),
+            floor_window: self.floor_window.unwrap_or(run.floor_window),
+            slide_window: self.slide_window.unwrap_or(run.slide_window),
+        }
+    }
+
     /// The GPT's share of the overrides.
     pub fn picking(&self) -> crate::gpt::PickingOverrides {
         crate::gpt::PickingOverrides {
@@ -507,13 +517,7 @@ fn sample_gpt(
     let dim = qean_aistpp::windows::AUDIO_DIM;
     let g = ck.config.gpt_table();
     let mut run = crate::gpt::GptRun::load(ck)?;
-    run.decoding.seam_frames = opts.seam_frames;
-    if let Some(w) = req.sampling.floor_window {
-        run.decoding.floor_window = w;
-    }
-    if let Some(w) = req.sampling.slide_window {
-        run.decoding.slide_window = w;
-    }
+    run.decoding = req.sampling.decoding(run.decoding);
     let picking = crate::gpt::Picking::of(g, &req.sampling.picking(), draw_seed);
     let mut out = Vec::new();
     for (i, r) in requests.iter().enumerate() {
@@ -709,12 +713,12 @@ fn sampler_label(req: &RunEvalRequest, config: &qean_config::RunConfig) -> Optio
             0 => "floor not pinned".to_string(),
             w => format!("lowest point pinned to the seed's floor over {w} frames"),
         };
-        let floor = match s.slide_window.unwrap_or(g.slide_window) {
+        let decoding = match s.slide_window.unwrap_or(g.slide_window) {
             0 => format!("{floor}, feet's glide kept"),
             w => format!("{floor}, feet's glide taken away over {w} frames"),
         };
         return Some(format!(
-            "GPT picking top-k {}, temperature {}, repetition penalty {} over {} tokens, draw seed {}; {floor}",
+            "GPT picking top-k {}, temperature {}, repetition penalty {} over {} tokens, draw seed {}; {decoding}",
             p.top_k, p.temperature, p.repetition_penalty, p.repetition_window, p.seed
         ));
     }

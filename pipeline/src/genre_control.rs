@@ -101,7 +101,8 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
     let pairs = pairings(&names, Protocol::Paired);
     let (requests, _) = crate::evaluate::sample_requests(&ds, &pairs, &ck.config, req.seed_start)?;
     let g = ck.config.gpt_table();
-    let run = GptRun::load(&ck)?;
+    let mut run = GptRun::load(&ck)?;
+    run.decoding = req.sampling.decoding(run.decoding);
     let picking = Picking::of(g, &req.sampling.picking(), req.sampling.sample_seed);
     let layout = ck.config.layout();
     let dim = qean_aistpp::windows::AUDIO_DIM;

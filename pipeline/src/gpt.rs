@@ -250,8 +250,8 @@ pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize], d: Decoding)
     // seam); `recipe.seam_frames` fades it out (qean_motion::seam).
     let seed_last = &seed_joints[last..last + 24];
     qean_motion::seam::ease_joints(&mut joints, seed.frames - 1, seed_last, d.seam_frames);
-    // The integrated root drifts with the decoded velocities' bias (the demo's dances sank 35–50 cm and
-    // glided 0.8 m in 10 s); the seed's lowest joint is the floor.
+    // The integrated root drifts with the decoded velocities' bias (the demo's dances sank 0.6–0.8 m and
+    // glided 0.4–1.2 m in 20 s); the seed's lowest joint is the floor.
     let floor = qean_motion::floor::floor_of(&seed_joints);
     qean_motion::floor::pin_to_floor(&mut joints, seed.frames, floor, d.floor_window);
     qean_motion::floor::stop_sliding(&mut joints, seed.frames, floor, d.slide_window);
@@ -273,8 +273,8 @@ pub struct GptRun {
     pub model: Gpt,
     pub genre: Option<(GenreModule, usize)>,
     pub vq: FrozenVq,
-    /// The seam's frames and the floor's window (the run's `recipe.seam_frames` and `gpt.floor_window`
-    /// unless a command line says otherwise).
+    /// The seam's frames and the floor's and the glide's windows (the run's `recipe.seam_frames`,
+    /// `gpt.floor_window` and `gpt.slide_window` unless a command line says otherwise).
     pub decoding: Decoding,
 }
 

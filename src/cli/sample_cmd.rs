@@ -153,6 +153,16 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
             ck.config.model.arch
         );
     }
+    let token_model = matches!(
+        ck.config.spec(),
+        ModelSpec::Gpt(_) | ModelSpec::GptGenre(..)
+    );
+    if !token_model && (a.floor_window.is_some() || a.slide_window.is_some()) {
+        tracing::warn!(
+            "--floor-window and --slide-window are for GPT runs (a root integrated from decoded velocities); this {:?} run ignores them",
+            ck.config.model.arch
+        );
+    }
     if let Some(t) = a.temperature.filter(|t| !(t.is_finite() && *t >= 0.0)) {
         bail!("--temperature must be ≥ 0, got {t}");
     }
