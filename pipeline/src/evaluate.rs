@@ -709,11 +709,12 @@ fn sampler_label(req: &RunEvalRequest, config: &qean_config::RunConfig) -> Optio
     if config.gpt.is_some() {
         let g = config.gpt_table();
         let p = crate::gpt::Picking::of(g, &s.picking(), s.sample_seed);
-        let floor = match s.floor_window.unwrap_or(g.floor_window) {
+        let d = s.decoding(crate::gpt::Decoding::of(config));
+        let floor = match d.floor_window {
             0 => "floor not pinned".to_string(),
             w => format!("lowest point pinned to the seed's floor over {w} frames"),
         };
-        let decoding = match s.slide_window.unwrap_or(g.slide_window) {
+        let decoding = match d.slide_window {
             0 => format!("{floor}, feet's glide kept"),
             w => format!("{floor}, feet's glide taken away over {w} frames"),
         };

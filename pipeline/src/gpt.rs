@@ -225,6 +225,18 @@ pub struct Decoding {
     pub slide_window: usize,
 }
 
+impl Decoding {
+    /// A GPT run's own decoding (its `recipe.seam_frames`, `gpt.floor_window` and `gpt.slide_window`).
+    pub fn of(config: &qean_config::RunConfig) -> Decoding {
+        let g = config.gpt_table();
+        Decoding {
+            seam_frames: config.recipe.seam_frames,
+            floor_window: g.floor_window,
+            slide_window: g.slide_window,
+        }
+    }
+}
+
 /// The dance of `tokens`: the seed motion as given, then the decoded frames after it (every token decoded,
 /// the root integrated and continued from the seed's last frame, the body eased out of the seed's last pose
 /// over `seam_frames` frames, its lowest point pinned to the seed's floor over `floor_window` frames and its
@@ -290,11 +302,7 @@ impl GptRun {
             model,
             genre,
             vq,
-            decoding: Decoding {
-                seam_frames: ck.config.recipe.seam_frames,
-                floor_window: ck.config.gpt_table().floor_window,
-                slide_window: ck.config.gpt_table().slide_window,
-            },
+            decoding: Decoding::of(&ck.config),
         })
     }
 
