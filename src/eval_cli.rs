@@ -10,6 +10,7 @@ use qean_eval::config::{
 };
 use qean_eval::curves::CurvesRequest;
 use qean_eval::dirs::{evaluate_dirs, DirRequest};
+use qean_eval::pfc::PfcVariant;
 use qean_eval::run_report::{Protocol, SeedStart};
 use qean_models::autoregress::AudioPad;
 use qean_pipeline::evaluate::{RunEvalRequest, SamplingOverrides};
@@ -197,6 +198,10 @@ pub struct Args {
     /// many frames (SPEC §11.9; 2 = the paper's literal frame count).
     #[arg(long, default_value_t = 5)]
     pub beat_tol: usize,
+    /// PFC, EDGE's physical foot-contact score (lower: feet that push the body): scored at ours (60 fps,
+    /// every frame) or edge (30 fps, every second frame, as EDGE's tables; about 4× ours).
+    #[arg(long, value_enum, default_value_t = PfcVariant::Ours)]
+    pub pfc: PfcVariant,
     /// Write the full report (per-sequence values included) here as JSON.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -247,6 +252,7 @@ impl Args {
                 max_frames: self.max_frames,
                 music_offset: self.music_offset,
                 beat_tol: self.beat_tol,
+                pfc: self.pfc,
                 ..EvalConfig::default()
             })
             .collect()

@@ -5,6 +5,10 @@
 #   supertux-data    (data/music/*: GPL-2+, Marek Moeckel and the SuperTux team; see its copyright file)
 # The study used 26-s mono excerpts from 10 s in (past the intros), written beside the tracks as
 # DIR/excerpts/*.ogg when python3 has the soundfile module.
+# Six other tracks of the same packages go to DIR/tuning/ (and DIR/tuning/excerpts/): songs to choose
+# sampler settings on, so that the six judging songs above stay unseen by every choice
+# (hr3-motion, hr3-crossroads: Shawn Parrotte; hr-savino-ocean: Will Savino; hr-domina-mountain:
+# Lincoln Domina, all CC BY-SA 3.0; SuperTux's forest-sprint and battle_theme: GPL-2+).
 # Then, e.g.: qean sample --run qean-demo/runs/qean --music DIR/excerpts/hr3-desert.ogg --out dances
 set -euo pipefail
 out="${1:-songs}"
@@ -21,22 +25,28 @@ for f in hr3-desert hr3-jungle hr-savino-caribbean hr-savino-palace hr-domina-hu
   cp "$hr/$f.ogg" "$out/"
 done
 cp "$st/antarctic/chipdisko.ogg" "$out/"
+mkdir -p "$out/tuning"
+for f in hr3-motion hr3-crossroads hr-savino-ocean hr-domina-mountain; do
+  cp "$hr/$f.ogg" "$out/tuning/"
+done
+cp "$st/forest/forest-sprint.ogg" "$st/misc/battle_theme.ogg" "$out/tuning/"
 cp "$work/x/usr/share/doc/hyperrogue-music/copyright" "$out/hyperrogue-music.copyright"
 cp "$work/x/usr/share/doc/supertux-data/copyright" "$out/supertux-data.copyright"
 if python3 -c "import soundfile" 2>/dev/null; then
   mkdir -p "$out/excerpts"
   python3 - "$out" <<'PY'
 import sys, pathlib, soundfile as sf
-out = pathlib.Path(sys.argv[1])
-for f in sorted(out.glob("*.ogg")):
-    audio, sr = sf.read(f, always_2d=True)
-    clip = audio[10 * sr : 36 * sr].mean(axis=1)
-    tmp = out / "excerpts" / (f.stem + ".tmp.ogg")
-    sf.write(tmp, clip, sr, format="OGG", subtype="VORBIS")
-    tmp.rename(out / "excerpts" / f.name)
+for out in [pathlib.Path(sys.argv[1]), pathlib.Path(sys.argv[1]) / "tuning"]:
+    (out / "excerpts").mkdir(exist_ok=True)
+    for f in sorted(out.glob("*.ogg")):
+        audio, sr = sf.read(f, always_2d=True)
+        clip = audio[10 * sr : 36 * sr].mean(axis=1)
+        tmp = out / "excerpts" / (f.stem + ".tmp.ogg")
+        sf.write(tmp, clip, sr, format="OGG", subtype="VORBIS")
+        tmp.rename(out / "excerpts" / f.name)
 PY
-  ls -1 "$out" "$out/excerpts"
+  ls -1 "$out" "$out/excerpts" "$out/tuning/excerpts"
 else
-  ls -1 "$out"
+  ls -1 "$out" "$out/tuning"
   echo "python3 has no soundfile module (pip install soundfile): the full tracks only, no excerpts" >&2
 fi

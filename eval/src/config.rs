@@ -4,6 +4,8 @@
 use clap::ValueEnum;
 use serde::{Deserialize, Serialize};
 
+use crate::pfc::PfcVariant;
+
 /// SPEC §7.6. `Reference` keeps the reference code's bugs (acceleration precedence, τ = 1/120);
 /// `Corrected` fixes both and changes nothing else.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, ValueEnum)]
@@ -105,6 +107,9 @@ pub struct EvalConfig {
     /// Coherence's fastest joint turn, degrees per second (1500).
     #[serde(default = "default_omega_max")]
     pub omega_max_deg_s: f64,
+    /// PFC's frame rate: ours (60 fps) or EDGE's (30 fps).
+    #[serde(default)]
+    pub pfc: PfcVariant,
 }
 
 fn default_beat_tol() -> usize {
@@ -144,6 +149,7 @@ impl Default for EvalConfig {
             chunk: default_chunk(),
             limit_slack_deg: default_slack(),
             omega_max_deg_s: default_omega_max(),
+            pfc: PfcVariant::Ours,
         }
     }
 }
@@ -152,7 +158,7 @@ impl EvalConfig {
     /// A one-line label naming every variant, printed under tables.
     pub fn label(&self) -> String {
         format!(
-            "metrics_mode={}, positions={}, geometric={}, BeatAlign={} (music beats: {}, segment: {}), seed_frames={}, max_frames={}, music_offset={}",
+            "metrics_mode={}, positions={}, geometric={}, BeatAlign={} (music beats: {}, segment: {}), seed_frames={}, max_frames={}, music_offset={}, PFC={}",
             value_name(self.metrics_mode),
             value_name(self.positions),
             value_name(self.geometric),
@@ -161,7 +167,8 @@ impl EvalConfig {
             value_name(self.ba_segment),
             self.seed_frames,
             self.max_frames,
-            self.music_offset
+            self.music_offset,
+            value_name(self.pfc)
         )
     }
 }

@@ -24,6 +24,7 @@ pub mod li_metrics;
 pub mod motion_beats;
 pub mod motion_energy;
 pub mod normalise;
+pub mod pfc;
 pub mod plausibility;
 pub mod positions;
 pub mod protocol;
@@ -37,6 +38,7 @@ pub use config::{
 pub use error::{Error, Result};
 pub use li_metrics::LiMetrics;
 pub use motion_energy::{EnergyReference, MotionEnergy};
+pub use pfc::PfcVariant;
 pub use positions::{Frame, Sequence, N_JOINTS};
 pub use protocol::{evaluate, features_of, BeatLookup, Features};
 pub use report::{render_markdown, MetricsReport, SequenceMetrics};

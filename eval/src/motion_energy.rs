@@ -15,6 +15,8 @@
 //!
 //! `root_drift`: how far the root (joint 0) gets in 10 s, sideways and up or down — what the speed misses
 //! when a dance glides or sinks through the floor slowly (docs/control.md, "Feet on the floor").
+//! `foot_contact`: the share of frames with a foot on the floor — what the speed misses when a dance
+//! floats (docs/control.md: a VQ-VAE whose decoded feet hovered 5–7 cm up passed every speed check).
 //! Plain f64, no Burn.
 
 use serde::{Deserialize, Serialize};
@@ -65,6 +67,51 @@ pub fn root_drift<'a>(sequences: impl IntoIterator<Item = &'a [Frame]>) -> RootD
         horizontal: average(h, n),
         vertical: average(v, n),
         windows: n,
+    }
+}
+
+/// The foot joints (SMPL: left and right ankle, left and right foot).
+pub const FOOT_JOINTS: [usize; 4] = [7, 8, 10, 11];
+/// Leading frames of a sequence whose lowest foot joint is its floor (the first second).
+pub const FLOOR_FRAMES: usize = 60;
+/// A foot within this height of the floor (above or below) is on it, m.
+pub const ON_FLOOR: f64 = 0.05;
+
+/// How often a set's dances stand on their floor: the share of frames whose lowest foot joint is
+/// within `ON_FLOOR` of the sequence's floor, the lowest foot joint over its first `FLOOR_FRAMES`
+/// frames (the seed's first second for a generated dance). Floating and sinking both lower it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct FootContact {
+    pub share: f64,
+    pub frames: usize,
+}
+
+fn lowest_foot(frame: &Frame) -> f64 {
+    FOOT_JOINTS
+        .iter()
+        .map(|&j| frame[j][1])
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The foot contact of a set: each item is a whole sequence (its floor taken from its first frames)
+/// and the range of frames scored; frames pool over sequences.
+pub fn foot_contact<'a>(
+    sequences: impl IntoIterator<Item = (&'a [Frame], std::ops::Range<usize>)>,
+) -> FootContact {
+    let (mut on, mut n) = (0usize, 0usize);
+    for (joints, scored) in sequences {
+        let floor = joints[..FLOOR_FRAMES.min(joints.len())]
+            .iter()
+            .map(lowest_foot)
+            .fold(f64::INFINITY, f64::min);
+        for frame in &joints[scored] {
+            on += usize::from((lowest_foot(frame) - floor).abs() <= ON_FLOOR);
+            n += 1;
+        }
+    }
+    FootContact {
+        share: average(on as f64, n),
+        frames: n,
     }
 }
 
@@ -597,5 +644,45 @@ mod tests {
         let short = root_drift([seq(&|t| [0.001 * t as f64, 1.0, 0.0])[..300].as_ref()]);
         assert_eq!(short.windows, 1);
         assert!((short.horizontal - 0.299).abs() < 1e-9);
+    }
+
+    #[test]
+    fn foot_contact_sees_floating_and_sinking_but_not_stepping() {
+        // 10 s after a 1-s seed standing at height 0: feet stepping (one foot lifts 20 cm at a time);
+        // the whole body floating 6 cm up every other half second; sinking 2 cm/s.
+        let frames = 660;
+        let body = |t: usize, lift: f64, drop: f64| -> Frame {
+            let mut f = [[0.0, 1.0 - drop, 0.0]; 24];
+            for (k, &j) in FOOT_JOINTS.iter().enumerate() {
+                let up = if (t / 30) % 2 == k % 2 && t >= 60 {
+                    0.2
+                } else {
+                    0.0
+                };
+                f[j] = [0.0, up + lift - drop, 0.0];
+            }
+            f
+        };
+        let seq = |f: &dyn Fn(usize) -> Frame| -> Vec<Frame> { (0..frames).map(f).collect() };
+        let stepping = seq(&|t| body(t, 0.0, 0.0));
+        let floating = seq(&|t| {
+            body(
+                t,
+                if t >= 60 && (t / 30) % 2 == 0 {
+                    0.06
+                } else {
+                    0.0
+                },
+                0.0,
+            )
+        });
+        let sinking = seq(&|t| body(t, 0.0, 0.02 * t.saturating_sub(60) as f64 / 60.0));
+        let score = |s: &Vec<Frame>| foot_contact([(s.as_slice(), 60..frames)]);
+        assert_eq!(score(&stepping).share, 1.0);
+        assert_eq!(score(&stepping).frames, 600);
+        assert_eq!(score(&floating).share, 0.5);
+        // On the floor for the first 2.5 s (within 5 cm), then under it.
+        let sunk = score(&sinking).share;
+        assert!((sunk - 151.0 / 600.0).abs() < 1e-12, "{sunk}");
     }
 }

@@ -14,7 +14,9 @@ use crate::fid::fid;
 use crate::geometric::geometric_features;
 use crate::kinetic::{self, kinetic_features};
 use crate::li_metrics::li_metrics;
-use crate::motion_energy::{motion_energy, EnergyReference};
+use crate::motion_energy::{
+    foot_contact, motion_energy, root_drift, EnergyReference, FootContact, RootDrift,
+};
 use crate::normalise::Normaliser;
 use crate::positions::{check_finite, prepare, Frame, Sequence};
 use crate::report::{Exclusion, Explosion, MetricsReport, SequenceMetrics};
@@ -400,6 +402,36 @@ fn features_of_sets(
     Ok((gen_feats, ref_feats))
 }
 
+/// How the dances meet the ground, beside the reference set: root drift, foot contact and PFC of the
+/// evaluated frames.
+struct Ground {
+    root_drift: RootDrift,
+    reference_root_drift: RootDrift,
+    foot_contact: FootContact,
+    reference_foot_contact: FootContact,
+    pfc: Option<f64>,
+    gt_pfc: Option<f64>,
+}
+
+impl Ground {
+    fn of(gen: &[(&Sequence, usize)], refs: &[&Sequence], cfg: &EvalConfig) -> Ground {
+        let scored = |len: usize| cfg.seed_frames..cfg.seed_frames + len;
+        let evaluated = || gen.iter().map(|(s, len)| &s.joints[scored(*len)]);
+        let whole = || refs.iter().map(|s| s.joints.as_slice());
+        Ground {
+            root_drift: root_drift(evaluated()),
+            reference_root_drift: root_drift(whole()),
+            foot_contact: foot_contact(
+                gen.iter()
+                    .map(|(s, len)| (s.joints.as_slice(), scored(*len))),
+            ),
+            reference_foot_contact: foot_contact(whole().map(|j| (j, 0..j.len()))),
+            pfc: crate::pfc::pfc(evaluated(), cfg.pfc),
+            gt_pfc: crate::pfc::pfc(whole(), cfg.pfc),
+        }
+    }
+}
+
 /// The report's line per generated dance.
 fn per_sequence(
     gen: &[(&Sequence, usize)],
@@ -478,9 +510,7 @@ pub fn evaluate(
             .map(|(s, len)| &s.joints[cfg.seed_frames..cfg.seed_frames + len])
     };
     let (seq_energy, set_energy) = motion_energy(evaluated(), &energy_reference);
-    let root_drift = crate::motion_energy::root_drift(evaluated());
-    let reference_root_drift =
-        crate::motion_energy::root_drift(refs.iter().map(|s| s.joints.as_slice()));
+    let ground = Ground::of(&gen, &refs, cfg);
 
     let (ba_b, n_b) = mean_of(scores.iter().map(|s| s.and_then(|s| s.bailando)));
     let (ba_m, n_m) = mean_of(scores.iter().map(|s| s.and_then(|s| s.mint)));
@@ -515,8 +545,12 @@ pub fn evaluate(
         constant_reference_dims_g: norm_g.constant_dims(),
         motion_energy: Some(set_energy),
         energy_reference: Some(energy_reference),
-        root_drift: Some(root_drift),
-        reference_root_drift: Some(reference_root_drift),
+        root_drift: Some(ground.root_drift),
+        reference_root_drift: Some(ground.reference_root_drift),
+        pfc: ground.pfc,
+        gt_pfc: ground.gt_pfc,
+        foot_contact: Some(ground.foot_contact),
+        reference_foot_contact: Some(ground.reference_foot_contact),
         sequences,
         excluded,
         exploded,

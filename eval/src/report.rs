@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{value_name, EvalConfig};
 use crate::error::{Error, Result};
 use crate::li_metrics::LiMetrics;
-use crate::motion_energy::{EnergyReference, MotionEnergy, RootDrift};
+use crate::motion_energy::{EnergyReference, FootContact, MotionEnergy, RootDrift};
 
 /// Per generated sequence: its evaluated length, BeatAlign under both variants and the raw
 /// (unnormalised) features.
@@ -83,6 +83,17 @@ pub struct MetricsReport {
     pub root_drift: Option<RootDrift>,
     #[serde(default)]
     pub reference_root_drift: Option<RootDrift>,
+    /// EDGE's physical foot-contact score of the generated frames (`crate::pfc`; lower is better), and
+    /// of the reference set.
+    #[serde(default)]
+    pub pfc: Option<f64>,
+    #[serde(default)]
+    pub gt_pfc: Option<f64>,
+    /// How often the generated frames have a foot on the floor, and the reference set's frames.
+    #[serde(default)]
+    pub foot_contact: Option<FootContact>,
+    #[serde(default)]
+    pub reference_foot_contact: Option<FootContact>,
     pub sequences: Vec<SequenceMetrics>,
     pub excluded: Vec<Exclusion>,
     /// Generated dances that exploded (held at their last plausible frame for every metric).
@@ -112,6 +123,8 @@ impl MetricsReport {
             ("gt_beat_align", self.gt_beat_align),
             ("gt_beat_align_bailando", self.gt_beat_align_bailando),
             ("gt_beat_align_mint", self.gt_beat_align_mint),
+            ("pfc", self.pfc),
+            ("gt_pfc", self.gt_pfc),
         ];
         named.extend(
             opts.iter()
@@ -139,6 +152,14 @@ impl MetricsReport {
             if let Some(d) = d {
                 named.push((format!("{name} horizontal"), d.horizontal));
                 named.push((format!("{name} vertical"), d.vertical));
+            }
+        }
+        for (name, c) in [
+            ("foot_contact", &self.foot_contact),
+            ("reference_foot_contact", &self.reference_foot_contact),
+        ] {
+            if let Some(c) = c {
+                named.push((name.to_string(), c.share));
             }
         }
         named.extend(self.li.named().into_iter().map(|(k, v)| (k.to_string(), v)));
@@ -171,21 +192,22 @@ fn opt(v: Option<f64>, digits: usize) -> String {
 pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
     let mut out = String::new();
     out.push_str(
-        "| Methods | FID_k ↓ | FID_g ↓ | Dist_k ↑ | Dist_g ↑ | BeatAlign ↑ | speed ratio → 1 | accel ratio → 1 | frozen ↓ | speed ratio per 5 s |\n",
+        "| Methods | FID_k ↓ | FID_g ↓ | Dist_k ↑ | Dist_g ↑ | BeatAlign ↑ | speed ratio → 1 | accel ratio → 1 | frozen ↓ | PFC ↓ | speed ratio per 5 s |\n",
     );
-    out.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
     if let Some((_, gt)) = rows.first() {
         out.push_str(&format!(
-            "| AIST++ | - | - | {:.3} | {:.3} | {} | 1 | 1 | - | - |\n",
+            "| AIST++ | - | - | {:.3} | {:.3} | {} | 1 | 1 | - | {} | - |\n",
             gt.gt_div_k,
             gt.gt_div_g,
-            opt(gt.gt_beat_align, 4)
+            opt(gt.gt_beat_align, 4),
+            opt(gt.gt_pfc, 3)
         ));
     }
     for (name, r) in rows {
         let e = r.motion_energy.as_ref();
         out.push_str(&format!(
-            "| {name} | {:.2} | {:.2} | {:.3} | {:.3} | {} | {} | {} | {} | {} |\n",
+            "| {name} | {:.2} | {:.2} | {:.3} | {:.3} | {} | {} | {} | {} | {} | {} |\n",
             r.fid_k,
             r.fid_g,
             r.div_k,
@@ -197,6 +219,7 @@ pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
                 || "-".into(),
                 |e| format!("{:.0} %", 100.0 * e.freeze_fraction)
             ),
+            opt(r.pfc, 3),
             e.map_or_else(|| "-".into(), MotionEnergy::span_speed_ratios),
         ));
     }
@@ -236,6 +259,7 @@ pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
         .into_iter()
         .flatten()
         .chain(drift_note(r))
+        .chain(contact_note(r))
         .collect();
         if !notes.is_empty() {
             out.push_str(&format!("- {name}: {}\n", notes.join("; ")));
@@ -268,6 +292,18 @@ fn drift_note(r: &MetricsReport) -> Option<String> {
         "root drift in 10 s: {:.2} m sideways, {:.2} m up or down (reference {:.2} m, {:.2} m; a glide or a \
          sink through the floor the speed ratios miss)",
         d.horizontal, d.vertical, g.horizontal, g.vertical
+    ))
+}
+
+/// "feet on the floor in …" for a report that has it.
+fn contact_note(r: &MetricsReport) -> Option<String> {
+    let (c, g) = (r.foot_contact?, r.reference_foot_contact?);
+    Some(format!(
+        "feet on the floor (a foot within {:.0} cm of the first second's floor) in {:.0} % of the frames \
+         (reference {:.0} %; a dance that floats or sinks)",
+        100.0 * crate::motion_energy::ON_FLOOR,
+        100.0 * c.share,
+        100.0 * g.share
     ))
 }
 

@@ -146,3 +146,50 @@ fn test_fk_reproduces_the_spec_sanity_values() {
         "head y in [{lo}, {hi}]"
     );
 }
+
+/// EDGE's PFC against its formula in numpy (tools/make_pfc_fixture.py) on the real excerpt: at our
+/// 60 fps, at EDGE's 30 fps, the same frames turned z-up, with sliding feet, and held still.
+#[test]
+fn pfc_matches_edges_formula() {
+    use qean_eval::pfc::{pfc, sequence_score, PfcVariant, SCALE};
+    let f: Value = serde_json::from_str(include_str!("fixtures/pfc.json")).unwrap();
+    let want = |k: &str| f["expected"][k].as_f64().unwrap();
+    let x = softcat_joints();
+    let close = |name: &str, got: f64, w: f64| {
+        assert!(
+            (got - w).abs() <= 1e-9 * w.abs().max(1e-12),
+            "{name}: ours {got}, numpy {w}"
+        );
+    };
+    close(
+        "ours",
+        pfc([x.as_slice()], PfcVariant::Ours).unwrap(),
+        want("ours"),
+    );
+    close(
+        "edge",
+        pfc([x.as_slice()], PfcVariant::Edge).unwrap(),
+        want("edge"),
+    );
+    let z_up: Vec<_> = x.iter().map(|f| f.map(|[a, b, c]| [a, -c, b])).collect();
+    close(
+        "edge_z_up",
+        SCALE * sequence_score(&z_up, 2, 30.0, 2).unwrap(),
+        want("edge_z_up"),
+    );
+    let sliding: Vec<_> = x
+        .iter()
+        .enumerate()
+        .map(|(t, f)| f.map(|[a, b, c]| [a + 2e-4 * (t as f64).powf(1.5), b, c]))
+        .collect();
+    close(
+        "sliding",
+        pfc([sliding.as_slice()], PfcVariant::Ours).unwrap(),
+        want("sliding"),
+    );
+    let still = vec![x[0]; 60];
+    assert_eq!(
+        pfc([still.as_slice()], PfcVariant::Ours),
+        Some(want("still"))
+    );
+}

@@ -732,21 +732,22 @@ pub fn table(models: &[ModelResult], reference: &EnergyReference) -> String {
 /// The evaluation on the test + val split: the ground truth, each model, the chance baselines.
 fn eval_table(models: &[ModelResult]) -> String {
     let mut t = String::from(
-        "| | FID_k ↓ | FID_g ↓ | Dist_k → | Dist_g → | BeatAlign ↑ | speed ratio → 1 | accel ratio → 1 | frozen ↓ | train time |\n\
-         |---|---|---|---|---|---|---|---|---|---|\n",
+        "| | FID_k ↓ | FID_g ↓ | Dist_k → | Dist_g → | BeatAlign ↑ | speed ratio → 1 | accel ratio → 1 | frozen ↓ | PFC ↓ | train time |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     if let Some(first) = models.first().and_then(|m| m.report.reports.first()) {
         t += &format!(
-            "| ground truth (synthetic test + val) | - | - | {} | {} | {} | 1 | 1 | 0 % | - |\n",
+            "| ground truth (synthetic test + val) | - | - | {} | {} | {} | 1 | 1 | 0 % | {} | - |\n",
             num(Some(first.gt_div_k)),
             num(Some(first.gt_div_g)),
-            num(first.gt_beat_align)
+            num(first.gt_beat_align),
+            num(first.gt_pfc)
         );
     }
     let row = |label: &str, r: &MetricsReport, time: &str| {
         let e = r.motion_energy.as_ref();
         format!(
-            "| {label} | {} | {} | {} | {} | {} | {} | {} | {} | {time} |\n",
+            "| {label} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {time} |\n",
             num(Some(r.fid_k)),
             num(Some(r.fid_g)),
             num(Some(r.div_k)),
@@ -758,6 +759,7 @@ fn eval_table(models: &[ModelResult]) -> String {
                 "{:.0} %",
                 100.0 * e.freeze_fraction
             )),
+            num(r.pfc),
         )
     };
     for m in models {
@@ -777,7 +779,7 @@ fn eval_table(models: &[ModelResult]) -> String {
         {
             // Same motions as the model's row, so only BeatAlign differs.
             t += &format!(
-                "| chance: {} with random music (all pairings) | | | | | {} | | | | - |\n",
+                "| chance: {} with random music (all pairings) | | | | | {} | | | | | - |\n",
                 m.label,
                 num(r.beat_align)
             );
