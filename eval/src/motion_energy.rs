@@ -402,6 +402,22 @@ pub fn motion_energy<'a>(
     (per_sequence, set)
 }
 
+/// How many dances of a set are within the dancing limits ([`MotionEnergy::dances`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DancingCount {
+    pub dancing: usize,
+    pub of: usize,
+}
+
+impl DancingCount {
+    pub fn of(energies: &[MotionEnergy]) -> DancingCount {
+        DancingCount {
+            dancing: energies.iter().filter(|e| e.dances()).count(),
+            of: energies.len(),
+        }
+    }
+}
+
 /// Whether a dance froze or jitters, by the thresholds `qean sample` and the demo warn at.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Verdict {

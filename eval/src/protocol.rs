@@ -15,7 +15,8 @@ use crate::geometric::geometric_features;
 use crate::kinetic::{self, kinetic_features};
 use crate::li_metrics::li_metrics;
 use crate::motion_energy::{
-    foot_contact, motion_energy, root_drift, EnergyReference, FootContact, RootDrift,
+    foot_contact, motion_energy, root_drift, DancingCount, EnergyReference, FootContact,
+    MotionEnergy, RootDrift,
 };
 use crate::normalise::Normaliser;
 use crate::positions::{check_finite, prepare, Frame, Sequence};
@@ -411,10 +412,19 @@ struct Ground {
     reference_foot_contact: FootContact,
     pfc: Option<f64>,
     gt_pfc: Option<f64>,
+    dancing: DancingCount,
+    reference_dancing: DancingCount,
 }
 
 impl Ground {
-    fn of(gen: &[(&Sequence, usize)], refs: &[&Sequence], cfg: &EvalConfig) -> Ground {
+    /// `energies`: the generated dances' motion energy against `reference`.
+    fn of(
+        gen: &[(&Sequence, usize)],
+        refs: &[&Sequence],
+        cfg: &EvalConfig,
+        energies: &[MotionEnergy],
+        reference: &EnergyReference,
+    ) -> Ground {
         let scored = |len: usize| cfg.seed_frames..cfg.seed_frames + len;
         let evaluated = || gen.iter().map(|(s, len)| &s.joints[scored(*len)]);
         let whole = || refs.iter().map(|s| s.joints.as_slice());
@@ -428,6 +438,15 @@ impl Ground {
             reference_foot_contact: foot_contact(whole().map(|j| (j, 0..j.len()))),
             pfc: crate::pfc::pfc(evaluated(), cfg.pfc),
             gt_pfc: crate::pfc::pfc(whole(), cfg.pfc),
+            dancing: DancingCount::of(energies),
+            // The reference's sequences from where the dances' scoring starts (after the seed).
+            reference_dancing: DancingCount::of(
+                &motion_energy(
+                    whole().map(|j| &j[cfg.seed_frames.min(j.len().saturating_sub(3))..]),
+                    reference,
+                )
+                .0,
+            ),
         }
     }
 }
@@ -510,7 +529,7 @@ pub fn evaluate(
             .map(|(s, len)| &s.joints[cfg.seed_frames..cfg.seed_frames + len])
     };
     let (seq_energy, set_energy) = motion_energy(evaluated(), &energy_reference);
-    let ground = Ground::of(&gen, &refs, cfg);
+    let ground = Ground::of(&gen, &refs, cfg, &seq_energy, &energy_reference);
 
     let (ba_b, n_b) = mean_of(scores.iter().map(|s| s.and_then(|s| s.bailando)));
     let (ba_m, n_m) = mean_of(scores.iter().map(|s| s.and_then(|s| s.mint)));
@@ -551,6 +570,8 @@ pub fn evaluate(
         gt_pfc: ground.gt_pfc,
         foot_contact: Some(ground.foot_contact),
         reference_foot_contact: Some(ground.reference_foot_contact),
+        dancing: Some(ground.dancing),
+        reference_dancing: Some(ground.reference_dancing),
         sequences,
         excluded,
         exploded,

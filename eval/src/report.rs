@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{value_name, EvalConfig};
 use crate::error::{Error, Result};
 use crate::li_metrics::LiMetrics;
-use crate::motion_energy::{EnergyReference, FootContact, MotionEnergy, RootDrift};
+use crate::motion_energy::{DancingCount, EnergyReference, FootContact, MotionEnergy, RootDrift};
 
 /// Per generated sequence: its evaluated length, BeatAlign under both variants and the raw
 /// (unnormalised) features.
@@ -94,6 +94,13 @@ pub struct MetricsReport {
     pub foot_contact: Option<FootContact>,
     #[serde(default)]
     pub reference_foot_contact: Option<FootContact>,
+    /// How many generated dances are within the dancing limits, and how many of the reference set's own
+    /// sequences are (from the seed's end on): the limits are against the set's mean, which some genres
+    /// exceed.
+    #[serde(default)]
+    pub dancing: Option<DancingCount>,
+    #[serde(default)]
+    pub reference_dancing: Option<DancingCount>,
     pub sequences: Vec<SequenceMetrics>,
     pub excluded: Vec<Exclusion>,
     /// Generated dances that exploded (held at their last plausible frame for every metric).
@@ -260,6 +267,7 @@ pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
         .flatten()
         .chain(drift_note(r))
         .chain(contact_note(r))
+        .chain(dancing_note(r))
         .collect();
         if !notes.is_empty() {
             out.push_str(&format!("- {name}: {}\n", notes.join("; ")));
@@ -304,6 +312,18 @@ fn contact_note(r: &MetricsReport) -> Option<String> {
         100.0 * crate::motion_energy::ON_FLOOR,
         100.0 * c.share,
         100.0 * g.share
+    ))
+}
+
+/// "… of … dances within the dancing limits" for a report that has it.
+fn dancing_note(r: &MetricsReport) -> Option<String> {
+    use crate::motion_energy::{MAX_ACCEL_RATIO, MAX_SPEED_RATIO, MIN_SPEED_RATIO};
+    let (d, g) = (r.dancing?, r.reference_dancing?);
+    Some(format!(
+        "{} of {} dances within the dancing limits (every 5-s span at {MIN_SPEED_RATIO}–{MAX_SPEED_RATIO}× the \
+         reference's mean speed and ≤ {MAX_ACCEL_RATIO}× its acceleration, ≤ 10 % frozen); the reference set's own \
+         sequences after the seed: {} of {}",
+        d.dancing, d.of, g.dancing, g.of
     ))
 }
 

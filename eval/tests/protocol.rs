@@ -58,6 +58,21 @@ fn full_report_is_finite_and_tagged() {
     assert!(md.contains("| AIST++ | - | - |"));
     assert!(md.contains("BeatAlign = bailando variant"), "{md}");
     assert!(md.contains("metrics_mode=reference"));
+    // How the dances meet the ground, each beside the reference set's: PFC, feet on the floor, and how
+    // many dances (and reference sequences) are within the dancing limits.
+    assert!(rep.pfc.is_some_and(|p| p >= 0.0) && rep.gt_pfc.is_some_and(|p| p >= 0.0));
+    let contact = rep.foot_contact.unwrap();
+    assert_eq!(contact.frames, 6 * 150);
+    assert!((0.0..=1.0).contains(&contact.share));
+    let (dancing, reference) = (rep.dancing.unwrap(), rep.reference_dancing.unwrap());
+    assert_eq!((dancing.of, reference.of), (6, 12));
+    assert!(dancing.dancing <= 6 && reference.dancing <= 12);
+    assert!(
+        md.contains("| PFC ↓ |")
+            && md.contains("feet on the floor")
+            && md.contains("dances within the dancing limits")
+    );
+    assert!(md.contains("PFC=ours"), "{md}");
     // The TSMT paper's metrics: top-level keys and the second markdown block.
     let value: serde_json::Value = serde_json::from_str(&json).unwrap();
     for key in [
