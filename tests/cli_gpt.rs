@@ -93,12 +93,44 @@ fn tiny_vq_gpt_trains_resumes_and_dances() {
     let split = dir.path().join("gpt_split");
     train("control/gpt_tiny.toml", &data, &split, &gpt_sets(3), false);
     train("control/gpt_tiny.toml", &data, &split, &gpt_sets(6), true);
-    // `gpt.token_shift_aug`: every training sequence tokenised from frame offsets 0..8.
+    // `gpt.token_shift_aug`: every training sequence tokenised from frame offsets 0..8. Trained from the
+    // temp directory with a relative link to its VQ-VAE (`gpt.vqvae_run = "vq"`, as the demo links its
+    // runs), it still samples from any other directory: the link is found beside the run.
     let shifted = dir.path().join("gpt_shifted");
     let mut sets = gpt_sets(1);
-    sets.push("gpt.token_shift_aug=true".into());
-    train("control/gpt_tiny.toml", &data, &shifted, &sets, false);
+    sets.retain(|s| !s.starts_with("gpt.vqvae_run"));
+    sets.extend([
+        "gpt.token_shift_aug=true".into(),
+        "gpt.vqvae_run=\"vq\"".into(),
+    ]);
+    let mut c = qean();
+    c.current_dir(dir.path())
+        .args(["train", "--plain", "--config"])
+        .arg(configs().join("control/gpt_tiny.toml"))
+        .arg("--data")
+        .arg(&data)
+        .arg("--run-dir")
+        .arg(&shifted);
+    for s in &sets {
+        c.arg("--set").arg(s);
+    }
+    run_ok(&mut c);
     assert_eq!(train_sequences(&shifted), 8 * train_sequences(&straight));
+    let elsewhere = tempfile::tempdir().unwrap();
+    let printed = run_ok(
+        qean()
+            .current_dir(elsewhere.path())
+            .args(["sample", "--frames", "120", "--run"])
+            .arg(&shifted)
+            .arg("--music")
+            .arg(shared().join("music/Kevin_MacLeod_-_Vibe_Ace.ogg"))
+            .arg("--out")
+            .arg(elsewhere.path().join("dance")),
+    );
+    assert!(
+        printed.contains("120 seed + 120 generated frames"),
+        "{printed}"
+    );
     let cks = checkpoints(&straight);
     let last = |r: &Path| checkpoints(r).last().unwrap().clone();
     assert_eq!(params_hash(&last(&straight)), params_hash(&last(&split)));

@@ -327,6 +327,31 @@ pub fn resolve(path: &Path) -> Result<Checkpoint> {
     ))
 }
 
+/// Resolves a run that a run's config links to (`gpt.vqvae_run`, `genre.gpt_run`): as written (absolute,
+/// or relative to the current directory), else, when the link is relative and `owner` (the run that
+/// names it) is given, beside that run: `OWNER/../NAME`. So a demo's `runs/gpt` finds its `runs/vq`
+/// wherever the demo directory is and whichever directory the command runs in.
+pub fn resolve_linked(link: &Path, owner: Option<&Path>) -> Result<Checkpoint> {
+    if link.is_absolute() || link.exists() {
+        return resolve(link);
+    }
+    let beside = owner
+        .and_then(Path::parent)
+        .zip(link.file_name())
+        .map(|(runs, name)| runs.join(name));
+    match beside {
+        Some(b) if b.exists() => resolve(&b),
+        Some(b) => Err(Error::at(
+            link,
+            format!(
+                "no such run or checkpoint directory here, nor beside the run that names it ({})",
+                b.display()
+            ),
+        )),
+        None => resolve(link),
+    }
+}
+
 /// Resolves a run directory plus an optional checkpoint name (`step-N`, `N` or a path).
 pub fn resolve_in_run(run: &Path, checkpoint: Option<&str>) -> Result<Checkpoint> {
     match checkpoint {

@@ -23,14 +23,15 @@ pub struct FrozenVq {
 }
 
 impl FrozenVq {
-    /// The newest checkpoint of `gpt.vqvae_run`, checked against the GPT's codes and rate.
-    pub fn load(g: &GptConfig) -> Result<FrozenVq> {
+    /// The newest checkpoint of `gpt.vqvae_run`, checked against the GPT's codes and rate; `owner`, the
+    /// run whose config names it, if any ([`crate::checkpoint::resolve_linked`]).
+    pub fn load(g: &GptConfig, owner: Option<&std::path::Path>) -> Result<FrozenVq> {
         let run = g.vqvae_run.as_ref().ok_or_else(|| {
             Error::msg(
                 "gpt.vqvae_run is not set: name the trained VQ-VAE run (--set gpt.vqvae_run=DIR)",
             )
         })?;
-        let checkpoint = crate::checkpoint::resolve(run)
+        let checkpoint = crate::checkpoint::resolve_linked(run, owner)
             .map_err(|e| Error::msg(format!("gpt.vqvae_run: {e}")))?;
         let qean_config::ModelSpec::Vqvae(vq) = checkpoint.config.spec() else {
             return Err(Error::at(

@@ -292,7 +292,7 @@ pub struct GptRun {
 
 impl GptRun {
     pub fn load(ck: &Checkpoint) -> Result<GptRun> {
-        let vq = FrozenVq::load(ck.config.gpt_table())?;
+        let vq = FrozenVq::load(ck.config.gpt_table(), ck.run_dir().as_deref())?;
         let (model, genre) = match ck.load_family(&Device::flex())? {
             FamilyModel::Gpt(model) => (model, None),
             FamilyModel::GptGenre(m) => (m.gpt, Some((m.genre, ck.config.genre_table().z_dim))),

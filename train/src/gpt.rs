@@ -295,7 +295,7 @@ impl Family for GptFamily {
             .as_ref()
             .ok_or_else(|| Error::msg("model.arch = \"gpt\" needs a [gpt] table"))?;
         g.validate().map_err(Error::msg)?;
-        let vq = FrozenVq::load(g)?;
+        let vq = FrozenVq::load(g, None)?;
         qean_checkpoint::weights::check_frozen_hash(
             resume,
             "vqvae_params_hash",
