@@ -741,7 +741,10 @@ fn eval_table(models: &[ModelResult]) -> String {
             num(Some(first.gt_div_k)),
             num(Some(first.gt_div_g)),
             num(first.gt_beat_align),
-            num(first.gt_pfc)
+            // A reused report from before PFC has none; another model's has the same reference's.
+            num(models
+                .iter()
+                .find_map(|m| m.report.reports.first()?.gt_pfc))
         );
     }
     let row = |label: &str, r: &MetricsReport, time: &str| {
