@@ -848,6 +848,19 @@ fn checks(models: &[ModelResult]) -> String {
             "; FID_k {:.2} vs 0.7 × the frozen baseline's {:.2} = {bound:.2}: {fid}",
             r.fid_k, b.frozen.fid_k
         );
+        if let (Some(d), Some(g)) = (r.dancing, r.reference_dancing) {
+            t += &format!(
+                "; {} of {} test + val dances within the dancing limits (the ground truth's own: {} of {})",
+                d.dancing, d.of, g.dancing, g.of
+            );
+        }
+        if let (Some(c), Some(g)) = (r.foot_contact, r.reference_foot_contact) {
+            t += &format!(
+                "; feet on the floor in {:.0} % of the frames (ground truth {:.0} %)",
+                100.0 * c.share,
+                100.0 * g.share
+            );
+        }
         match (
             r.beat_align,
             b.random_pairing.as_ref().and_then(|x| x.beat_align),
