@@ -199,7 +199,7 @@ pub struct Args {
     #[arg(long, default_value_t = 5)]
     pub beat_tol: usize,
     /// PFC, EDGE's physical foot-contact score (lower: feet that push the body): scored at ours (60 fps,
-    /// every frame) or edge (30 fps, every second frame, as EDGE's tables; about 4× ours).
+    /// every frame) or edge (30 fps, every second frame, as EDGE's tables; 3–5× ours on the same dance).
     #[arg(long, value_enum, default_value_t = PfcVariant::Ours)]
     pub pfc: PfcVariant,
     /// Write the full report (per-sequence values included) here as JSON.
