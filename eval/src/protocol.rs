@@ -403,8 +403,8 @@ fn features_of_sets(
     Ok((gen_feats, ref_feats))
 }
 
-/// How the dances meet the ground, beside the reference set: root drift, foot contact and PFC of the
-/// evaluated frames.
+/// How the dances meet the ground and how many keep dancing, each beside the reference set's: root drift,
+/// foot contact, PFC and the dancing-limits count of the evaluated frames.
 struct Ground {
     root_drift: RootDrift,
     reference_root_drift: RootDrift,
