@@ -5,6 +5,7 @@
 mod common;
 use common::*;
 use std::path::Path;
+use std::process::Command;
 
 #[test]
 fn inspect_prints_the_gpt_counts() {
@@ -30,6 +31,11 @@ const GPT_SMALL: [&str; 5] = [
 ];
 
 fn train(config: &str, data: &Path, run: &Path, sets: &[String], resume: bool) -> String {
+    run_ok(&mut train_command(config, data, run, sets, resume))
+}
+
+/// `qean train` of `config` (or `--resume`) with `sets` as `--set`s, not yet run.
+fn train_command(config: &str, data: &Path, run: &Path, sets: &[String], resume: bool) -> Command {
     let mut c = qean();
     c.arg("train").arg("--plain");
     if resume {
@@ -45,7 +51,7 @@ fn train(config: &str, data: &Path, run: &Path, sets: &[String], resume: bool) -
     for s in sets {
         c.arg("--set").arg(s);
     }
-    run_ok(&mut c)
+    c
 }
 
 /// A small tiny-preset VQ-VAE (`VQ_SMALL`) trained for `steps` at batch 4: the frozen tokenizer of a GPT.
@@ -103,18 +109,8 @@ fn tiny_vq_gpt_trains_resumes_and_dances() {
         "gpt.token_shift_aug=true".into(),
         "gpt.vqvae_run=\"vq\"".into(),
     ]);
-    let mut c = qean();
-    c.current_dir(dir.path())
-        .args(["train", "--plain", "--config"])
-        .arg(configs().join("control/gpt_tiny.toml"))
-        .arg("--data")
-        .arg(&data)
-        .arg("--run-dir")
-        .arg(&shifted);
-    for s in &sets {
-        c.arg("--set").arg(s);
-    }
-    run_ok(&mut c);
+    let mut c = train_command("control/gpt_tiny.toml", &data, &shifted, &sets, false);
+    run_ok(c.current_dir(dir.path()));
     assert_eq!(train_sequences(&shifted), 8 * train_sequences(&straight));
     let elsewhere = tempfile::tempdir().unwrap();
     let printed = run_ok(
@@ -205,27 +201,16 @@ fn tiny_vq_gpt_trains_resumes_and_dances() {
     let bad = dir.path().join("bad");
     let mut missing: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
     missing.push(string_set("gpt.vqvae_run", &dir.path().join("nope")));
-    let mut c = qean();
-    c.args(["train", "--plain", "--config"])
-        .arg(configs().join("control/gpt_tiny.toml"))
-        .arg("--data")
-        .arg(&data)
-        .arg("--run-dir")
-        .arg(&bad);
-    for s in &missing {
-        c.arg("--set").arg(s);
-    }
+    let mut c = train_command("control/gpt_tiny.toml", &data, &bad, &missing, false);
     assert_clean_failure(&mut c, "gpt.vqvae_run");
     assert!(!bad.exists());
-    let mut c = qean();
-    c.args(["train", "--plain", "--config"])
-        .arg(configs().join("control/gpt_tiny.toml"))
-        .arg("--data")
-        .arg(&data)
-        .arg("--run-dir")
-        .arg(&bad)
-        .arg("--set")
-        .arg(string_set("gpt.vqvae_run", &vq));
+    let mut c = train_command(
+        "control/gpt_tiny.toml",
+        &data,
+        &bad,
+        &[string_set("gpt.vqvae_run", &vq)],
+        false,
+    );
     assert_clean_failure(
         &mut c,
         "the VQ-VAE has 16 codes at 8 frames per token; this GPT is built for 128",

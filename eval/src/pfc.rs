@@ -20,6 +20,7 @@ use clap::ValueEnum;
 use serde::{Deserialize, Serialize};
 
 use crate::positions::Frame;
+use qean_motion::vec3::{norm, sub};
 
 /// The score's scale (EDGE multiplies by 10⁴).
 pub const SCALE: f64 = 1e4;
@@ -56,7 +57,6 @@ pub fn sequence_score(joints: &[Frame], stride: usize, fps: f64, up: usize) -> O
     if frames.len() < 3 {
         return None;
     }
-    let flat: Vec<usize> = (0..3).filter(|&a| a != up).collect();
     let dt2 = 1.0 / (fps * fps);
     let accel: Vec<f64> = frames
         .windows(3)
@@ -66,16 +66,18 @@ pub fn sequence_score(joints: &[Frame], stride: usize, fps: f64, up: usize) -> O
                 *v = (w[2][0][k] - 2.0 * w[1][0][k] + w[0][0][k]) / dt2;
             }
             a[up] = a[up].max(0.0);
-            (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+            norm(a)
         })
         .collect();
     let peak = accel.iter().cloned().fold(0.0, f64::max);
     if peak <= 0.0 {
         return Some(0.0);
     }
+    // The horizontal length of joint j's step into the window's last frame.
     let step = |w: &[&Frame], j: usize| {
-        let d: Vec<f64> = flat.iter().map(|&k| w[2][j][k] - w[1][j][k]).collect();
-        d.iter().map(|x| x * x).sum::<f64>().sqrt()
+        let mut d = sub(w[2][j], w[1][j]);
+        d[up] = 0.0;
+        norm(d)
     };
     let total: f64 = frames
         .windows(3)

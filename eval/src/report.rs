@@ -317,13 +317,19 @@ fn contact_note(r: &MetricsReport) -> Option<String> {
 
 /// "… of … dances within the dancing limits" for a report that has it.
 fn dancing_note(r: &MetricsReport) -> Option<String> {
-    use crate::motion_energy::{MAX_ACCEL_RATIO, MAX_SPEED_RATIO, MIN_SPEED_RATIO};
+    use crate::motion_energy::{
+        MAX_ACCEL_RATIO, MAX_FREEZE_FRACTION, MAX_SPEED_RATIO, MIN_SPEED_RATIO,
+    };
     let (d, g) = (r.dancing?, r.reference_dancing?);
     Some(format!(
         "{} of {} dances within the dancing limits (every 5-s span at {MIN_SPEED_RATIO}–{MAX_SPEED_RATIO}× the \
-         reference's mean speed and ≤ {MAX_ACCEL_RATIO}× its acceleration, ≤ 10 % frozen); the reference set's own \
-         sequences after the seed: {} of {}",
-        d.dancing, d.of, g.dancing, g.of
+         reference's mean speed and ≤ {MAX_ACCEL_RATIO}× its acceleration, ≤ {:.0} % frozen); the reference set's \
+         own sequences after the seed: {} of {}",
+        d.dancing,
+        d.of,
+        100.0 * MAX_FREEZE_FRACTION,
+        g.dancing,
+        g.of
     ))
 }
 

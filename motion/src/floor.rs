@@ -181,6 +181,15 @@ mod tests {
     }
 
     /// The largest acceleration a correction (before − after, per frame) adds around the seam at frame 120.
+    /// The largest change of any point's `axis` coordinate between `before` and `after`.
+    fn largest_shift(after: &[[f64; 3]], before: &[[f64; 3]], axis: usize) -> f64 {
+        after
+            .iter()
+            .zip(before)
+            .map(|(a, b)| (a[axis] - b[axis]).abs())
+            .fold(0.0, f64::max)
+    }
+
     fn seam_kink(correction: &[f64]) -> f64 {
         accelerations(correction)[117..129]
             .iter()
@@ -240,11 +249,7 @@ mod tests {
         let mut joints = before.clone();
         let floor = floor_of(&joints[..120 * J]);
         pin_to_floor(&mut joints, 120, floor, 60);
-        let most = joints
-            .iter()
-            .zip(&before)
-            .map(|(a, b)| (a[1] - b[1]).abs())
-            .fold(0.0, f64::max);
+        let most = largest_shift(&joints, &before, 1);
         assert!(most < 1e-9, "a dance on the floor moved by {most} m");
         let mut sunk = figure(720, |t| 1.0 - 0.002 * t as f64, jump);
         let seed = sunk[..120 * J].to_vec();
@@ -345,11 +350,7 @@ mod tests {
         }
         let before = joints.clone();
         stop_sliding(&mut joints, 120, 0.05, 240);
-        let moved = joints
-            .iter()
-            .zip(&before)
-            .map(|(a, b)| (a[0] - b[0]).abs())
-            .fold(0.0, f64::max);
+        let moved = largest_shift(&joints, &before, 0);
         assert!(moved < 1e-9, "a stepping dance moved by {moved} m");
     }
 }
