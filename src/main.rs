@@ -12,6 +12,23 @@ extern "C" {
     fn mi_option_set(option: std::ffi::c_int, value: std::ffi::c_long);
 }
 
+#[cfg(unix)]
+extern "C" {
+    /// libc's `signal(2)`.
+    fn signal(signum: std::ffi::c_int, handler: usize) -> usize;
+}
+
+/// Output piped into a reader that stops early (`qean sweep --dry-run | head`) ends the program quietly,
+/// as other Unix tools do, instead of a panic on the closed pipe: SIGPIPE back to its default action
+/// (Rust ignores it at start-up).
+fn quiet_on_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: restores the default disposition of SIGPIPE (13) (SIG_DFL = 0) before any thread starts.
+    unsafe {
+        signal(13, 0);
+    }
+}
+
 /// `mi_option_purge_delay` in mimalloc's option enum (v2 and v3).
 const MI_OPTION_PURGE_DELAY: std::ffi::c_int = 15;
 
@@ -26,6 +43,7 @@ fn keep_freed_memory() {
 }
 
 fn main() {
+    quiet_on_closed_pipe();
     keep_freed_memory();
     qean_models::backend::prefer_cpu_default_device();
     let args = cli::Cli::parse();

@@ -170,7 +170,7 @@ print(len(header) - 1, total)
 }
 
 #[test]
-fn sweep_of_the_tiny_ablation_summarises_four_variants() {
+fn sweep_of_the_tiny_ablation_summarises_variants_over_seeds() {
     let d = tempfile::tempdir().unwrap();
     let data = dataset(d.path());
     let out = d.path().join("sweep");
@@ -182,6 +182,7 @@ fn sweep_of_the_tiny_ablation_summarises_four_variants() {
         .arg(&data)
         .arg("--out")
         .arg(&out)
+        .args(["--seeds", "0,1", "--only", "baseline,full"])
         .arg("--plain");
     for s in SMALL
         .iter()
@@ -191,12 +192,20 @@ fn sweep_of_the_tiny_ablation_summarises_four_variants() {
     }
     let text = run_ok(&mut cmd);
     let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
-    for v in ["baseline", "spe", "qra", "full"] {
-        assert!(
-            md.contains(&format!("| {v}-seed0 | {v} | 0 | 2 |")),
-            "{v}: {md}"
-        );
+    for v in ["baseline", "full"] {
+        for seed in [0, 1] {
+            assert!(
+                md.contains(&format!("| {v}-seed{seed} | {v} | {seed} | 2 |")),
+                "{v}: {md}"
+            );
+        }
+        // Over the two seeds: an interval of every quantity (t with 1 degree of freedom).
+        assert!(md.contains(&format!("| {v} | 2 | ")), "{md}");
     }
+    assert!(md.contains("| full − baseline | 2 | "), "{md}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(json[1]["against"], "baseline", "{json}");
     assert!(text.contains("summary.csv"), "{text}");
     let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     assert_eq!(csv.lines().count(), 5, "{csv}");
@@ -204,6 +213,78 @@ fn sweep_of_the_tiny_ablation_summarises_four_variants() {
     let again = run_ok(&mut cmd);
     let md2 = std::fs::read_to_string(out.join("summary.md")).unwrap();
     assert_eq!(md2.matches("finished earlier").count(), 4, "{again}\n{md2}");
+}
+
+/// configs/sweeps/table1-tiny.toml shortened (2 updates a stage, 2 seeds, 60 frames): every family,
+/// the VQ-VAE → GPT → genre chain by `{runs}`/`{seed}`, and table1.{md,json}.
+#[test]
+fn table1_tiny_sweep_scores_every_family_over_seeds() {
+    let d = tempfile::tempdir().unwrap();
+    let data = dataset(d.path());
+    let out = d.path().join("table1");
+    let mut cmd = qean();
+    cmd.arg("sweep")
+        .arg("--config")
+        .arg(configs().join("sweeps/table1-tiny.toml"))
+        .arg("--data")
+        .arg(&data)
+        .arg("--out")
+        .arg(&out)
+        .args(["--seeds", "0,1", "--eval-frames", "60", "--plain"]);
+    for s in SMALL.iter().chain(&[
+        "train.steps=2",
+        "train.checkpoint_every=2",
+        "train.val_every=2",
+        "train.log_every=1",
+    ]) {
+        cmd.arg("--set").arg(s);
+    }
+    run_ok(&mut cmd);
+    let md = std::fs::read_to_string(out.join("table1.md")).unwrap();
+    for v in ["fact", "qean", "tsmt", "gpt", "genre"] {
+        assert!(md.contains(&format!("\n| {v} | 2 | ")), "{v}: {md}");
+    }
+    assert!(
+        !md.contains("| vqvae |"),
+        "the tokenizer is not a row: {md}"
+    );
+    assert!(md.contains("| ground truth, scored as fact, qean"), "{md}");
+    assert!(
+        md.contains("| QEAN | 30.1 | 11.5 | 7.82 | 9.37 | 0.239 |"),
+        "{md}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("table1.json")).unwrap()).unwrap();
+    assert_eq!(json["rows"].as_array().unwrap().len(), 5, "{json}");
+    let gpt = std::fs::read_to_string(out.join("gpt-seed1/config.toml")).unwrap();
+    assert!(gpt.contains("vqvae-seed1"), "{gpt}");
+    assert!(out.join("table1.png").is_file());
+
+    // `qean report` rebuilds the same table from the runs' records, without training or evaluating.
+    for f in ["table1.md", "table1.json", "table1.png", "summary.md"] {
+        std::fs::remove_file(out.join(f)).unwrap();
+    }
+    let text = run_ok(qean().arg("report").arg(&out));
+    assert!(text.contains("12 runs"), "{text}");
+    assert_eq!(std::fs::read_to_string(out.join("table1.md")).unwrap(), md);
+    assert!(out.join("table1.png").is_file());
+    // Laid out as Table 2 with FACT as the baseline: paired differences.
+    run_ok(
+        qean()
+            .arg("report")
+            .arg(&out)
+            .args(["--table", "table2", "--baseline", "fact"]),
+    );
+    let t2 = std::fs::read_to_string(out.join("table2.md")).unwrap();
+    assert!(t2.contains("| qean − fact | 2 | "), "{t2}");
+    assert_clean_failure(
+        qean().arg("report").arg(&out).args(["--baseline", "nope"]),
+        "baseline `nope`: no run of that variant here",
+    );
+    assert_clean_failure(
+        qean().arg("report").arg(d.path().join("nowhere")),
+        "nowhere",
+    );
 }
 
 #[test]

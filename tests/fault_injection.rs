@@ -149,6 +149,7 @@ fn sweep_cmd(data: &Path, out: &Path) -> Command {
         .arg(data)
         .arg("--out")
         .arg(out)
+        .args(["--seeds", "0"])
         .arg("--plain");
     for s in SMALL.iter().chain(&[
         "train.steps=8",

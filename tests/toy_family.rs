@@ -154,10 +154,9 @@ fn final_checkpoint(run: &Path) -> Checkpoint {
     checkpoint::resolve(run).unwrap()
 }
 
-#[test]
-fn a_toy_family_trains_resumes_exactly_and_samples_through_the_trainer() {
-    let tmp = tempfile::tempdir().unwrap();
-    let data = tmp.path().join("synth");
+/// A small synthetic dataset under `dir` and the toy's 6-update config (plus `extra` overrides).
+fn setup(dir: &Path, extra: &[&str]) -> (std::path::PathBuf, RunConfig) {
+    let data = dir.join("synth");
     let synth = qean_synth::SynthOptions {
         sequences: 12,
         seconds: 6.0,
@@ -170,7 +169,7 @@ fn a_toy_family_trains_resumes_exactly_and_samples_through_the_trainer() {
     };
     qean_synth::generate(&data, &synth).unwrap();
     let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
-    let overrides = [
+    let mut overrides = vec![
         qean_config::run::string_override("data.dir", &data.to_string_lossy()),
         "train.steps=6".into(),
         "train.batch_size=2".into(),
@@ -178,7 +177,23 @@ fn a_toy_family_trains_resumes_exactly_and_samples_through_the_trainer() {
         "train.val_every=2".into(),
         "train.log_every=1".into(),
     ];
+    overrides.extend(extra.iter().map(|e| e.to_string()));
     let config = RunConfig::load(&configs.join("fact.toml"), &overrides).unwrap();
+    (data, config)
+}
+
+/// Every parameter's name and bit pattern.
+fn bits(m: &Toy) -> Vec<(String, Vec<u32>)> {
+    qean_models::params::named_parameters(m)
+        .into_iter()
+        .map(|p| (p.name, p.values.iter().map(|v| v.to_bits()).collect()))
+        .collect()
+}
+
+#[test]
+fn a_toy_family_trains_resumes_exactly_and_samples_through_the_trainer() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (data, config) = setup(tmp.path(), &[]);
 
     // Uninterrupted.
     let straight = tmp.path().join("straight");
@@ -226,16 +241,7 @@ fn a_toy_family_trains_resumes_exactly_and_samples_through_the_trainer() {
     // The weights themselves (the hash is of the names and values; the files also hold run-time ids).
     let device = Device::flex();
     let values = |c: &Checkpoint| {
-        let m = family::load_checkpoint_model(&ToyFamily::default(), c, &device).unwrap();
-        qean_models::params::named_parameters(&m)
-            .into_iter()
-            .map(|p| {
-                (
-                    p.name,
-                    p.values.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                )
-            })
-            .collect::<Vec<_>>()
+        bits(&family::load_checkpoint_model(&ToyFamily::default(), c, &device).unwrap())
     };
     assert!(values(&a) == values(&b), "bit-identical parameters");
     assert_eq!(a.state.sampler, b.state.sampler);
@@ -273,4 +279,65 @@ fn a_toy_family_trains_resumes_exactly_and_samples_through_the_trainer() {
     assert!(out[0].iter().all(|x| x.is_finite()));
     let generated = &out[0][spec.motion_len * d..];
     assert_ne!(&generated[..d], &request.seed[(spec.motion_len - 1) * d..]);
+}
+
+#[test]
+fn the_weight_average_resumes_exactly_and_leaves_training_unchanged() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (_, plain) = setup(tmp.path(), &[]);
+    let averaged = RunConfig {
+        train: qean_config::run::TrainConfig {
+            ema_decay: 0.9,
+            ..plain.train.clone()
+        },
+        ..plain.clone()
+    };
+    let run = |name: &str, config: &RunConfig, stop_at: Option<u64>| {
+        let dir = tmp.path().join(name);
+        let flag = Arc::new(AtomicBool::new(false));
+        let mut toy = ToyFamily {
+            stop_at: stop_at.map(|s| (s, flag.clone())),
+            ..ToyFamily::default()
+        };
+        train_family(&mut toy, config.clone(), &options(&dir, Start::Fresh, flag)).unwrap();
+        if stop_at.is_some() {
+            let mut toy = ToyFamily::default();
+            let out = train_family(
+                &mut toy,
+                config.clone(),
+                &options(&dir, Start::Auto, Arc::default()),
+            )
+            .unwrap();
+            assert_eq!(out.step, 6);
+        }
+        final_checkpoint(&dir)
+    };
+    let device = Device::flex();
+    let trained = |c: &Checkpoint| {
+        let m = ToyFamily::default().init(&c.config, &device).unwrap();
+        let path = c.dir.join(checkpoint::MODEL_FILE);
+        bits(&qean_checkpoint::weights::load_weights(m, &path).unwrap())
+    };
+    let sampled = |c: &Checkpoint| {
+        bits(&family::load_checkpoint_model(&ToyFamily::default(), c, &device).unwrap())
+    };
+    let without = run("without", &plain, None);
+    let straight = run("straight", &averaged, None);
+    let resumed = run("resumed", &averaged, Some(3));
+    assert!(!without.dir.join(checkpoint::EMA_FILE).exists());
+    assert!(straight.dir.join(checkpoint::EMA_FILE).is_file());
+    assert!(
+        trained(&without) == trained(&straight),
+        "the average does not change training"
+    );
+    assert!(sampled(&without) == trained(&without));
+    assert!(
+        sampled(&straight) != trained(&straight),
+        "samplers load the average"
+    );
+    assert!(
+        sampled(&straight) == sampled(&resumed),
+        "the average resumes bit-exactly"
+    );
+    assert!(trained(&straight) == trained(&resumed));
 }

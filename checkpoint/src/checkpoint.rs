@@ -26,6 +26,8 @@ use qean_config::ModelSpec;
 
 pub const MODEL_FILE: &str = "model.bpk";
 pub const OPTIMIZER_FILE: &str = "optimizer.bpk";
+/// The moving average of the weights (runs with `train.ema_decay` > 0): what samplers load.
+pub const EMA_FILE: &str = "ema.bpk";
 pub const STATE_FILE: &str = "state.json";
 pub const CONFIG_FILE: &str = "config.toml";
 /// Version of the checkpoint layout.
@@ -96,7 +98,8 @@ impl Checkpoint {
         }
         let config_path = dir.join(CONFIG_FILE);
         let config = RunConfig::load(&config_path, &[]).map_err(|e| Error::msg(e.to_string()))?;
-        for f in [MODEL_FILE, OPTIMIZER_FILE] {
+        let ema = (config.train.ema_decay > 0.0).then_some(EMA_FILE);
+        for f in [MODEL_FILE, OPTIMIZER_FILE].into_iter().chain(ema) {
             if !dir.join(f).is_file() {
                 return Err(Error::at(dir.join(f), "missing from the checkpoint"));
             }

@@ -1,6 +1,6 @@
 //! The one place that builds a checkpoint's model for each family: one `match` on the run's [`ModelSpec`]
 //! gives a [`FamilyModel`], and the sampler, the evaluation and `inspect` take the variant they handle. The
-//! weights are the checkpoint's `model.bpk`; a model is built from the checkpoint's own config, so a
+//! weights are the checkpoint's `model.bpk` (its `ema.bpk` when the run averaged them); a model is built from the checkpoint's own config, so a
 //! checkpoint never loads into another family's shape.
 
 use burn::tensor::Device;
@@ -15,7 +15,7 @@ use qean_models::tsmt::Tsmt;
 use qean_models::vqvae::VqVae;
 use qean_models::DanceModel;
 
-use crate::checkpoint::{Checkpoint, MODEL_FILE};
+use crate::checkpoint::{Checkpoint, EMA_FILE, MODEL_FILE};
 use crate::weights::load_weights;
 
 /// A checkpoint's model, by family.
@@ -47,9 +47,19 @@ impl FamilyModel {
 }
 
 impl Checkpoint {
-    /// The checkpoint's model with its weights, on `device`.
+    /// The weights a sampler or evaluation loads: the moving average of a run trained with
+    /// `train.ema_decay` > 0, else the trained weights.
+    pub fn weights_file(&self) -> std::path::PathBuf {
+        if self.config.train.ema_decay > 0.0 {
+            self.dir.join(EMA_FILE)
+        } else {
+            self.dir.join(MODEL_FILE)
+        }
+    }
+
+    /// The checkpoint's model with its weights ([`Checkpoint::weights_file`]), on `device`.
     pub fn load_family(&self, device: &Device) -> Result<FamilyModel> {
-        let path = self.dir.join(MODEL_FILE);
+        let path = self.weights_file();
         Ok(match self.config.spec() {
             ModelSpec::FactQean(m) => FamilyModel::FactQean(load_weights(
                 DanceModel::new(m, device).map_err(|e| Error::at(&self.dir, e.to_string()))?,

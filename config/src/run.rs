@@ -108,6 +108,9 @@ pub struct TrainConfig {
     pub val_every: u64,
     /// Checkpoints kept: the last `keep_last`, plus the best by validation loss.
     pub keep_last: usize,
+    /// Decay of an exponential moving average of the weights (0 = none): with one, every checkpoint also
+    /// holds `ema.bpk`, and validation, sampling and evaluation use it; training itself is unchanged.
+    pub ema_decay: f64,
     /// Backend the run trains on: flex (CPU, default), ndarray (CPU; needs the `ndarray` build) or wgpu (GPU;
     /// needs the `wgpu` build).
     pub backend: crate::Backend,
@@ -123,6 +126,7 @@ impl Default for TrainConfig {
             log_every: 10,
             val_every: 1000,
             keep_last: 3,
+            ema_decay: 0.0,
             backend: crate::Backend::Flex,
         }
     }
@@ -379,6 +383,12 @@ impl RunConfig {
         }
         if t.log_every == 0 {
             return Err("train.log_every must be at least 1".into());
+        }
+        if !(0.0..1.0).contains(&t.ema_decay) {
+            return Err(format!(
+                "train.ema_decay must be in [0, 1), got {}",
+                t.ema_decay
+            ));
         }
         if t.keep_last == 0 {
             return Err("train.keep_last must be at least 1".into());
@@ -651,6 +661,7 @@ mod tests {
             ("steps=4", "table and a field"),
             ("train.steps", "key.path=value"),
             ("train.steps=0", "train.steps"),
+            ("train.ema_decay=1", "train.ema_decay must be in [0, 1)"),
             ("train.backend=cuda", "cuda"),
             ("data.train_split=dev", "dev"),
             ("schedule.values=[1e-5]", "boundaries"),

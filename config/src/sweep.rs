@@ -10,11 +10,20 @@
 //! eval_frames = 1200                    # generated frames per sequence when evaluating
 //! [set]                                 # overrides shared by every run
 //! "train.steps" = 200
+//! baseline = "baseline"                # paired differences against this variant (same seeds)
 //! [[variant]]
 //! name = "baseline"
 //! [[variant]]
 //! name = "spe"
 //! set = { "model.position" = "rotary" }
+//! [[variant]]                           # a stage another variant builds on: trained, not evaluated
+//! name = "vqvae"
+//! config = "../control/vqvae_tiny.toml"
+//! evaluate = false
+//! [[variant]]                           # in a string value, `{seed}`: the run's seed; `{runs}`: the
+//! name = "gpt"                          # sweep's output directory
+//! config = "../control/gpt_tiny.toml"
+//! set = { "gpt.vqvae_run" = "{runs}/vqvae-seed{seed}" }
 //! [grid]                                # every combination of these values
 //! "schedule.initial" = [1e-4, 3e-4]
 //! ```
@@ -26,6 +35,25 @@ use qean_io::error::{Error, Result};
 use serde::Deserialize;
 
 use crate::run::RunConfig;
+/// A QEAN paper table a sweep can be laid out as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PaperTable {
+    /// Table 1: every method's FID_k, FID_g, Dist_k, Dist_g and BeatAlign.
+    Table1,
+    /// Table 2: the ablation's FID_k, FID_g and BeatAlign, with paired differences to the baseline.
+    Table2,
+}
+
+impl PaperTable {
+    pub fn name(self) -> &'static str {
+        match self {
+            PaperTable::Table1 => "table1",
+            PaperTable::Table2 => "table2",
+        }
+    }
+}
+
 /// One variant: a config file (default: the sweep's base) plus overrides.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -34,6 +62,9 @@ pub struct Variant {
     pub config: Option<PathBuf>,
     #[serde(default)]
     pub set: BTreeMap<String, toml::Value>,
+    /// Whether its runs are evaluated (default: the sweep's `evaluate`); e.g. false for a VQ-VAE stage.
+    #[serde(default)]
+    pub evaluate: Option<bool>,
 }
 
 /// The sweep file.
@@ -45,6 +76,12 @@ pub struct SweepConfig {
     pub seeds: Vec<u64>,
     #[serde(default)]
     pub evaluate: bool,
+    /// The variant every other one is compared with, seed by seed (paired differences in the summary).
+    #[serde(default)]
+    pub baseline: Option<String>,
+    /// Also write the summary in a QEAN paper table's layout (`table1.md`/`.json` or `table2.…`).
+    #[serde(default)]
+    pub table: Option<PaperTable>,
     /// Generated frames per sequence when evaluating (default 1200, as the protocol).
     #[serde(default)]
     pub eval_frames: Option<usize>,
@@ -66,6 +103,8 @@ pub struct PlannedRun {
     pub grid: Vec<(String, String)>,
     pub config: RunConfig,
     pub run_dir: PathBuf,
+    /// Whether the sweep evaluates this run (its variant's `evaluate`, else the sweep's).
+    pub evaluate: bool,
 }
 
 fn value_text(v: &toml::Value) -> String {
@@ -75,8 +114,19 @@ fn value_text(v: &toml::Value) -> String {
     }
 }
 
-fn override_spec(key: &str, v: &toml::Value) -> String {
-    format!("{key}={v}")
+/// `key=value` for `--set`, with `{seed}` in a string value replaced by the run's seed and `{runs}` by
+/// the sweep's output directory (absolute).
+fn override_spec(key: &str, v: &toml::Value, seed: u64, runs: &Path) -> String {
+    match v {
+        toml::Value::String(s) if s.contains("{seed}") || s.contains("{runs}") => format!(
+            "{key}={}",
+            toml::Value::String(
+                s.replace("{seed}", &seed.to_string())
+                    .replace("{runs}", &runs.to_string_lossy())
+            )
+        ),
+        _ => format!("{key}={v}"),
+    }
 }
 
 fn safe_name(s: &str) -> String {
@@ -119,11 +169,24 @@ pub fn plan(
     out: Option<&Path>,
     extra: &[String],
 ) -> Result<(SweepConfig, PathBuf, Vec<PlannedRun>)> {
+    plan_seeds(path, out, extra, None)
+}
+
+/// [`plan`] with the file's `seeds` replaced by `seeds` when given (the CLI's `--seeds`).
+pub fn plan_seeds(
+    path: &Path,
+    out: Option<&Path>,
+    extra: &[String],
+    seeds: Option<&[u64]>,
+) -> Result<(SweepConfig, PathBuf, Vec<PlannedRun>)> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let sweep: SweepConfig = toml::from_str(&text).map_err(|e| {
+    let mut sweep: SweepConfig = toml::from_str(&text).map_err(|e| {
         let c = crate::model::ConfigError::from_toml(path, &text, &e);
         Error::msg(c.to_string())
     })?;
+    if let Some(seeds) = seeds {
+        sweep.seeds = seeds.to_vec();
+    }
     if sweep.variant.is_empty() {
         return Err(Error::at(path, "no [[variant]] given"));
     }
@@ -135,6 +198,16 @@ pub fn plan(
                 format!("variant `{}` is named twice", v.name),
             ));
         }
+    }
+    if let Some(b) = sweep
+        .baseline
+        .as_ref()
+        .filter(|b| !sweep.variant.iter().any(|v| &v.name == *b))
+    {
+        return Err(Error::at(
+            path,
+            format!("baseline `{b}` is not one of the variants"),
+        ));
     }
     let here = path.parent().unwrap_or(Path::new("."));
     let out_dir = match out {
@@ -148,6 +221,7 @@ pub fn plan(
         }
     };
     let combos = grid_combinations(path, &sweep)?;
+    let runs_dir = std::path::absolute(&out_dir).map_err(|e| Error::io(&out_dir, e))?;
     let mut runs = Vec::new();
     for variant in &sweep.variant {
         let config_path = variant
@@ -167,9 +241,10 @@ pub fn plan(
         for seed in &seeds {
             for combo in &combos {
                 let mut overrides: Vec<String> = Vec::new();
-                overrides.extend(sweep.set.iter().map(|(k, v)| override_spec(k, v)));
-                overrides.extend(variant.set.iter().map(|(k, v)| override_spec(k, v)));
-                overrides.extend(combo.iter().map(|(k, v)| override_spec(k, v)));
+                let spec = |(k, v): (&String, &toml::Value)| override_spec(k, v, *seed, &runs_dir);
+                overrides.extend(sweep.set.iter().map(spec));
+                overrides.extend(variant.set.iter().map(spec));
+                overrides.extend(combo.iter().map(|(k, v)| spec((k, v))));
                 overrides.push(format!("train.seed={seed}"));
                 overrides.extend(extra.iter().cloned());
                 let config = RunConfig::load(&config_path, &overrides)
@@ -193,9 +268,59 @@ pub fn plan(
                         .map(|(k, v)| (k.clone(), value_text(v)))
                         .collect(),
                     config,
+                    evaluate: variant.evaluate.unwrap_or(sweep.evaluate),
                 });
             }
         }
     }
     Ok((sweep, out_dir, runs))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seeds_in_values_stages_and_the_baseline() {
+        let d = tempfile::tempdir().unwrap();
+        let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs");
+        let sweep = d.path().join("s.toml");
+        let text = format!(
+            "base = {base:?}\nseeds = [3, 4]\nevaluate = true\nbaseline = \"vq\"\n\
+             [[variant]]\nname = \"vq\"\nconfig = {vq:?}\nevaluate = false\n\
+             [[variant]]\nname = \"gpt\"\nconfig = {gpt:?}\nset = {{ \"gpt.vqvae_run\" = \"{{runs}}/vq-seed{{seed}}\" }}\n",
+            base = configs.join("tiny/fact.toml"),
+            vq = configs.join("control/vqvae_tiny.toml"),
+            gpt = configs.join("control/gpt_tiny.toml"),
+        );
+        std::fs::write(&sweep, &text).unwrap();
+        let (config, out, runs) = plan(&sweep, None, &[]).unwrap();
+        assert_eq!(config.baseline.as_deref(), Some("vq"));
+        assert_eq!(out, d.path().join("s-runs"));
+        let names: Vec<(&str, bool)> = runs.iter().map(|r| (r.name.as_str(), r.evaluate)).collect();
+        assert_eq!(
+            names,
+            [
+                ("vq-seed3", false),
+                ("vq-seed4", false),
+                ("gpt-seed3", true),
+                ("gpt-seed4", true)
+            ]
+        );
+        assert_eq!(
+            runs[3].config.gpt.as_ref().unwrap().vqvae_run.as_deref(),
+            Some(d.path().join("s-runs/vq-seed4").as_path())
+        );
+        let bad = d.path().join("bad.toml");
+        std::fs::write(
+            &bad,
+            text.replace("baseline = \"vq\"", "baseline = \"vqq\""),
+        )
+        .unwrap();
+        let e = plan(&bad, None, &[]).unwrap_err().to_string();
+        assert!(
+            e.contains("baseline `vqq` is not one of the variants"),
+            "{e}"
+        );
+    }
 }

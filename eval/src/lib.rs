@@ -30,6 +30,7 @@ pub mod positions;
 pub mod protocol;
 pub mod report;
 pub mod run_report;
+pub mod stats;
 pub mod synthetic;
 
 pub use config::{

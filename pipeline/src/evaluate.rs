@@ -292,8 +292,23 @@ pub fn checkpoint_metrics(run_dir: &Path, frames: usize) -> Result<Vec<(String, 
             .fold(f64::MAX, f64::min);
         out.push(("min_span_speed_ratio".to_string(), min_span));
     }
+    if let Some(p) = r.pfc {
+        out.push(("pfc".to_string(), p));
+    }
+    // The reference set scored the same way (the same frames after the seed), and the chance levels.
+    out.push(("gt_dist_k".to_string(), r.gt_div_k));
+    out.push(("gt_dist_g".to_string(), r.gt_div_g));
+    if let Some(ba) = r.gt_beat_align {
+        out.push(("gt_beat_align".to_string(), ba));
+    }
+    if let Some(p) = r.gt_pfc {
+        out.push(("gt_pfc".to_string(), p));
+    }
     if let Some(b) = &report.baselines {
         out.push(("frozen_fid_k".to_string(), b.frozen.fid_k));
+        if let Some(ba) = b.random_pairing.as_ref().and_then(|r| r.beat_align) {
+            out.push(("random_beat_align".to_string(), ba));
+        }
     }
     Ok(out)
 }

@@ -41,6 +41,7 @@ pub enum Command {
     Edit(edit_cmds::EditArgs),
     Train(train_cmds::TrainArgs),
     Sweep(train_cmds::SweepArgs),
+    Report(train_cmds::ReportArgs),
     Export(train_cmds::ExportArgs),
     Sample(sample_cmd::SampleArgs),
     Eval(Box<qean::eval_cli::Args>),
@@ -58,6 +59,7 @@ pub fn run(cli: Cli) -> anyhow::Result<i32> {
     match cli.command {
         Command::Train(a) => train_cmds::train(a),
         Command::Sweep(a) => train_cmds::sweep(a),
+        Command::Report(a) => train_cmds::report(a),
         Command::Export(a) => train_cmds::export(a),
         Command::Sample(a) => sample_cmd::sample(a),
         Command::Demo(a) => demo_cmd::demo(a),
@@ -111,6 +113,7 @@ fn run_data(command: Command) -> anyhow::Result<()> {
         }
         Command::Train(_)
         | Command::Sweep(_)
+        | Command::Report(_)
         | Command::Export(_)
         | Command::Sample(_)
         | Command::Demo(_) => {

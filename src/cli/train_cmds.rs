@@ -17,8 +17,8 @@ use qean_train::{sweep, TrainOptions};
 /// its tokens, genre control over a GPT and the genre classifier (the config's model.arch), each with Adam
 /// and the configured step schedule (the genre stage: one Adam per optimiser group). Writes R/config.toml
 /// (resolved), R/metrics.csv (step, lr, loss, val_loss, seconds), R/train.log, R/loss.png and
-/// R/checkpoints/step-N/ (model, optimiser, trainer state; the last train.keep_last plus the best by
-/// validation loss). Ctrl-C writes a checkpoint and stops; `--resume R` continues exactly.
+/// R/checkpoints/step-N/ (model, optimiser, trainer state, and the weights' moving average with
+/// train.ema_decay > 0; the last train.keep_last plus the best by validation loss). Ctrl-C writes a checkpoint and stops; `--resume R` continues exactly.
 ///
 /// Examples:
 ///   qean train --config configs/tiny/full.toml --data synth --run-dir runs/full
@@ -147,10 +147,18 @@ pub fn train(a: TrainArgs) -> anyhow::Result<i32> {
 }
 
 /// Run a sweep: every variant × seed × grid combination of a sweep file is one training run in
-/// S-runs/<name>/ (finished runs are skipped, interrupted ones resumed), then S-runs/summary.md and
-/// summary.csv (variant, seed, steps, final train/val loss, time, metrics when evaluated).
+/// S-runs/<name>/ (finished runs are skipped, interrupted ones resumed), then S-runs/summary.md,
+/// summary.csv and summary.json: every run (variant, seed, steps, final train/val loss, time, metrics
+/// when evaluated), each variant over its seeds as mean ± 95 % confidence interval (Student's t), and,
+/// with `baseline = "NAME"` in the sweep file, each variant's paired differences against it (seed by
+/// seed; * where the interval excludes 0). A variant with `evaluate = false` is a stage others build
+/// on; in a string value `{seed}` is the run's seed and `{runs}` the output directory (e.g.
+/// "gpt.vqvae_run" = "{runs}/vqvae-seed{seed}"). With `table = "table1"` (or "table2") the sweep is also
+/// laid out as that QEAN paper table: S-runs/table1.md and table1.json.
 ///
-/// Example: qean sweep --config configs/sweeps/tiny-ablation.toml --data synth
+/// Examples:
+///   qean sweep --config configs/sweeps/table1-tiny.toml --data qean-demo/data
+///   qean sweep --config configs/sweeps/tiny-ablation.toml --data synth --seeds 0,1
 #[derive(Args, Debug)]
 #[command(about = "Run a sweep of training runs (variants × seeds × grid) and summarise it")]
 pub struct SweepArgs {
@@ -173,6 +181,12 @@ pub struct SweepArgs {
     /// cores: the summary then lists these runs only).
     #[arg(long, value_delimiter = ',')]
     pub only: Vec<String>,
+    /// Train these seeds instead of the sweep file's `seeds` (comma-separated, e.g. 0,1,2).
+    #[arg(long, value_delimiter = ',')]
+    pub seeds: Vec<u64>,
+    /// Generated frames per sequence when evaluating, instead of the sweep file's `eval_frames`.
+    #[arg(long)]
+    pub eval_frames: Option<usize>,
     /// Print the planned runs and exit.
     #[arg(long)]
     pub dry_run: bool,
@@ -183,7 +197,9 @@ pub struct SweepArgs {
 
 pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
     let overrides = overrides(&a.set, &a.data, &a.backend);
-    let (config, out_dir, mut runs) = sweep::plan(&a.config, a.out.as_deref(), &overrides)?;
+    let seeds = (!a.seeds.is_empty()).then_some(a.seeds.as_slice());
+    let (config, out_dir, mut runs) =
+        sweep::plan_seeds(&a.config, a.out.as_deref(), &overrides, seeds)?;
     if !a.only.is_empty() {
         if let Some(unknown) = a
             .only
@@ -209,17 +225,24 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
         stop: stop_flag(),
         ..TrainOptions::new(&out_dir)
     };
-    let frames = config.eval_frames.unwrap_or(1200);
+    let frames = a.eval_frames.or(config.eval_frames).unwrap_or(1200);
     let evaluator = |run_dir: &Path| -> qean_io::error::Result<Vec<(String, f64)>> {
         qean_pipeline::evaluate::checkpoint_metrics(run_dir, frames)
             .map_err(|e| qean_io::error::Error::msg(format!("{e:#}")))
     };
-    let evaluator_ref: Option<&sweep::Evaluator> = if config.evaluate {
-        Some(&evaluator)
-    } else {
-        None
+    let evaluator = sweep::SweepEvaluator {
+        key: format!("checkpoint mode, reference metrics, {frames} frames"),
+        eval: &evaluator,
     };
-    let results = sweep::run(&out_dir, &runs, &options, evaluator_ref)?;
+    let any_evaluated = runs.iter().any(|r| r.evaluate);
+    let evaluator_ref = any_evaluated.then_some(&evaluator);
+    let results = sweep::run(
+        &out_dir,
+        &runs,
+        &options,
+        evaluator_ref,
+        &sweep::SummaryLayout::of(&config),
+    )?;
     if results
         .iter()
         .any(|r| r.status == sweep::RunStatus::Interrupted)
@@ -230,6 +253,75 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
     let md = std::fs::read_to_string(out_dir.join("summary.md"))?;
     print!("{md}");
     println!("summary: {}", out_dir.join("summary.csv").display());
+    if let Some(t) = config.table {
+        println!(
+            "{}: {} (chart {})",
+            t.name(),
+            out_dir.join(format!("{}.md", t.name())).display(),
+            out_dir.join(format!("{}.png", t.name())).display()
+        );
+    }
+    Ok(0)
+}
+
+/// Rebuild a sweep's summary, paper table and chart from its finished runs, without training or
+/// evaluating: reads each run's R/sweep.json (its variant, seed and metrics, written by `qean sweep`),
+/// R/metrics.csv and newest checkpoint, and writes S-runs/summary.{md,csv,json} and, for a sweep with a
+/// `table`, tableN.{md,json,png}. Use it after copying runs from several machines into one directory
+/// (`qean sweep --only` splits a sweep), or to lay the same runs out as another table.
+///
+/// Examples:
+///   qean report configs/sweeps/table1-tiny-runs
+///   qean report ablation-runs --table table2 --baseline baseline
+#[derive(Args, Debug)]
+#[command(about = "Rebuild a sweep's summary, tables and charts from its finished runs")]
+pub struct ReportArgs {
+    /// The sweep's output directory (S-runs).
+    pub dir: PathBuf,
+    /// Lay the runs out as this QEAN paper table (default: the sweep file's `table`).
+    #[arg(long, value_parser = ["table1", "table2"])]
+    pub table: Option<String>,
+    /// Paired differences against this variant (default: the sweep file's `baseline`).
+    #[arg(long)]
+    pub baseline: Option<String>,
+}
+
+pub fn report(a: ReportArgs) -> anyhow::Result<i32> {
+    // The sweep's own layout, with the flags' choices over it.
+    let saved = sweep::saved_layout(&a.dir)?;
+    let layout = sweep::SummaryLayout {
+        baseline: a.baseline.clone().or(saved.baseline),
+        table: match a.table.as_deref() {
+            Some("table1") => Some(sweep::PaperTable::Table1),
+            Some("table2") => Some(sweep::PaperTable::Table2),
+            _ => saved.table,
+        },
+    };
+    let results = sweep::collect(&a.dir)?;
+    if let Some(b) = &layout.baseline {
+        if !results.iter().any(|r| &r.run.variant == b) {
+            bail!(
+                "{}: baseline `{b}`: no run of that variant here",
+                a.dir.display()
+            );
+        }
+    }
+    sweep::write_summary(&a.dir, &results, &layout)?;
+    let md = std::fs::read_to_string(a.dir.join("summary.md"))?;
+    print!("{md}");
+    println!(
+        "{} runs; summary: {}",
+        results.len(),
+        a.dir.join("summary.md").display()
+    );
+    if let Some(t) = layout.table {
+        println!(
+            "{}: {} (chart {})",
+            t.name(),
+            a.dir.join(format!("{}.md", t.name())).display(),
+            a.dir.join(format!("{}.png", t.name())).display()
+        );
+    }
     Ok(0)
 }
 

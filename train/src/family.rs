@@ -167,8 +167,5 @@ pub fn load_checkpoint_model<F: Family>(
     device: &Device,
 ) -> Result<F::Model> {
     let model = family.init(&checkpoint.config, device)?;
-    qean_checkpoint::weights::load_weights(
-        model,
-        &checkpoint.dir.join(qean_checkpoint::checkpoint::MODEL_FILE),
-    )
+    qean_checkpoint::weights::load_weights(model, &checkpoint.weights_file())
 }

@@ -5,6 +5,7 @@
 //! checkpoint's model) is read by qean-checkpoint, below this crate.
 
 pub mod data;
+pub mod ema;
 pub mod export;
 pub mod fact_qean;
 pub mod family;
@@ -14,6 +15,7 @@ pub mod gpt;
 pub mod inbetween;
 pub mod logging;
 pub mod metrics_log;
+pub mod paper_table;
 pub mod plot;
 pub mod progress;
 pub mod recipe;

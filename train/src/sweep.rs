@@ -1,11 +1,14 @@
 //! Running a sweep planned by [`qean_config::sweep::plan`]: every run trained in order (finished
-//! runs skipped, interrupted ones resumed), then `S-runs/summary.md` and `summary.csv`.
+//! runs skipped, interrupted ones resumed), then `S-runs/summary.md`, `summary.csv` and `summary.json`: every
+//! run, then each variant over its seeds (mean ± 95 % confidence interval, Student's t) and its paired
+//! differences against the first variant (the same seeds).
 
 use std::path::Path;
 
+use qean_eval::stats::{paired_difference, Interval};
 use qean_io::error::{Error, Result};
 
-pub use qean_config::sweep::{plan, PlannedRun, SweepConfig, Variant};
+pub use qean_config::sweep::{plan, plan_seeds, PaperTable, PlannedRun, SweepConfig, Variant};
 
 use crate::trainer::{Start, TrainOptions};
 
@@ -45,14 +48,76 @@ pub struct RunResult {
 /// Per-run evaluation hook: run directory → metrics (name, value).
 pub type Evaluator<'a> = dyn Fn(&Path) -> Result<Vec<(String, f64)>> + 'a;
 
-/// Trains every planned run in order and writes the summary after each.
+/// How the summary is laid out beyond its per-run table.
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
+pub struct SummaryLayout {
+    /// Paired differences against this variant.
+    pub baseline: Option<String>,
+    /// Also a QEAN paper table (`table1.md`/`.json`, `table2.…`).
+    pub table: Option<PaperTable>,
+}
+
+impl SummaryLayout {
+    /// The sweep file's choices.
+    pub fn of(config: &SweepConfig) -> Self {
+        SummaryLayout {
+            baseline: config.baseline.clone(),
+            table: config.table,
+        }
+    }
+}
+
+/// Per-run evaluation hook: run directory → metrics (name, value), and a key naming what it computes
+/// (e.g. the frames scored): a run's recorded metrics are reused only under the same key.
+pub struct SweepEvaluator<'a> {
+    pub key: String,
+    pub eval: &'a Evaluator<'a>,
+}
+
+/// What a sweep records in each run directory (`R/sweep.json`): the run's place in the sweep and its
+/// metrics, so that a rerun does not evaluate it again and `qean report` rebuilds the summary.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RunRecord {
+    /// Position in the sweep's plan.
+    pub index: usize,
+    pub name: String,
+    pub variant: String,
+    pub seed: u64,
+    pub grid: Vec<(String, String)>,
+    pub evaluate: bool,
+    /// The checkpoint step the metrics are of.
+    pub step: u64,
+    /// The evaluator's key (empty when not evaluated).
+    pub eval_key: String,
+    pub metrics: Vec<(String, f64)>,
+}
+
+/// The record's file name in a run directory.
+pub const RECORD_FILE: &str = "sweep.json";
+/// The summary layout's file in the sweep's output directory.
+pub const LAYOUT_FILE: &str = "sweep-layout.json";
+
+fn read_record(run_dir: &Path) -> Option<RunRecord> {
+    let text = std::fs::read_to_string(run_dir.join(RECORD_FILE)).ok()?;
+    serde_json::from_str(&text).ok()
+}
+
+fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
+    let json = serde_json::to_string_pretty(value).expect("records serialise");
+    qean_io::fsutil::atomic_write(path, json.as_bytes())
+}
+
+/// Trains every planned run in order (evaluating those with `evaluate`, or reusing the metrics recorded
+/// for the same checkpoint and evaluator) and writes the summary after each, laid out as `layout` says.
 pub fn run(
     out_dir: &Path,
     runs: &[PlannedRun],
     options: &TrainOptions,
-    evaluator: Option<&Evaluator>,
+    evaluator: Option<&SweepEvaluator>,
+    layout: &SummaryLayout,
 ) -> Result<Vec<RunResult>> {
     std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
+    write_json(&out_dir.join(LAYOUT_FILE), layout)?;
     let mut results = Vec::new();
     for (k, run) in runs.iter().enumerate() {
         let opts = TrainOptions {
@@ -72,9 +137,45 @@ pub fn run(
         let rows = crate::metrics_log::read(&run.run_dir.join("metrics.csv")).unwrap_or_default();
         let train_loss = rows.iter().rev().find_map(|r| r.loss);
         let val_loss = rows.iter().rev().find_map(|r| r.val_loss);
-        let metrics = match (evaluator, outcome.interrupted) {
-            (Some(eval), false) => eval(&run.run_dir)?,
-            _ => vec![],
+        let metrics = match evaluator.filter(|_| run.evaluate && !outcome.interrupted) {
+            Some(e) => {
+                let recorded = read_record(&run.run_dir)
+                    .filter(|r| r.step == outcome.step && r.eval_key == e.key && r.evaluate);
+                let metrics = match recorded {
+                    Some(r) => r.metrics,
+                    None => (e.eval)(&run.run_dir)?,
+                };
+                let record = RunRecord {
+                    index: k,
+                    name: run.name.clone(),
+                    variant: run.variant.clone(),
+                    seed: run.seed,
+                    grid: run.grid.clone(),
+                    evaluate: true,
+                    step: outcome.step,
+                    eval_key: e.key.clone(),
+                    metrics: metrics.clone(),
+                };
+                write_json(&run.run_dir.join(RECORD_FILE), &record)?;
+                metrics
+            }
+            None => {
+                if !outcome.interrupted {
+                    let record = RunRecord {
+                        index: k,
+                        name: run.name.clone(),
+                        variant: run.variant.clone(),
+                        seed: run.seed,
+                        grid: run.grid.clone(),
+                        evaluate: false,
+                        step: outcome.step,
+                        eval_key: String::new(),
+                        metrics: Vec::new(),
+                    };
+                    write_json(&run.run_dir.join(RECORD_FILE), &record)?;
+                }
+                vec![]
+            }
         };
         results.push(RunResult {
             run: run.clone(),
@@ -85,10 +186,67 @@ pub fn run(
             status,
             metrics,
         });
-        write_summary(out_dir, &results)?;
+        write_summary(out_dir, &results, layout)?;
         if outcome.interrupted {
             break;
         }
+    }
+    Ok(results)
+}
+
+/// The layout a sweep saved in its output directory (the default when it saved none).
+pub fn saved_layout(out_dir: &Path) -> Result<SummaryLayout> {
+    let path = out_dir.join(LAYOUT_FILE);
+    match std::fs::read_to_string(&path) {
+        Ok(text) => serde_json::from_str(&text)
+            .map_err(|e| Error::at(&path, format!("malformed sweep layout: {e}"))),
+        Err(_) => Ok(SummaryLayout::default()),
+    }
+}
+
+/// `qean report SWEEP_DIR`: the finished runs of a sweep's output directory, rebuilt from their records
+/// (`R/sweep.json`, `R/metrics.csv`, the newest checkpoint) without training or evaluating, in the
+/// sweep's order ([`write_summary`] then lays them out).
+pub fn collect(out_dir: &Path) -> Result<Vec<RunResult>> {
+    let entries = std::fs::read_dir(out_dir).map_err(|e| Error::io(out_dir, e))?;
+    let mut records: Vec<(RunRecord, std::path::PathBuf)> = Vec::new();
+    for entry in entries {
+        let dir = entry.map_err(|e| Error::io(out_dir, e))?.path();
+        if !dir.join(RECORD_FILE).is_file() {
+            continue;
+        }
+        let record = read_record(&dir)
+            .ok_or_else(|| Error::at(dir.join(RECORD_FILE), "malformed sweep record"))?;
+        records.push((record, dir));
+    }
+    if records.is_empty() {
+        return Err(Error::at(
+            out_dir,
+            "no finished sweep runs here (no */sweep.json): run `qean sweep` first",
+        ));
+    }
+    records.sort_by_key(|(r, _)| r.index);
+    let mut results = Vec::new();
+    for (r, dir) in records {
+        let rows = crate::metrics_log::read(&dir.join("metrics.csv")).unwrap_or_default();
+        let ck = qean_checkpoint::checkpoint::resolve(&dir)?;
+        results.push(RunResult {
+            run: PlannedRun {
+                name: r.name,
+                variant: r.variant,
+                seed: r.seed,
+                grid: r.grid,
+                config: ck.config.clone(),
+                run_dir: dir,
+                evaluate: r.evaluate,
+            },
+            steps: ck.state.step,
+            train_loss: rows.iter().rev().find_map(|x| x.loss),
+            val_loss: rows.iter().rev().find_map(|x| x.val_loss),
+            seconds: ck.state.elapsed_seconds,
+            status: RunStatus::FinishedEarlier,
+            metrics: r.metrics,
+        });
     }
     Ok(results)
 }
@@ -97,8 +255,9 @@ fn fmt_opt(x: Option<f64>) -> String {
     x.map(|v| format!("{v:.4e}")).unwrap_or_else(|| "-".into())
 }
 
-/// Writes `summary.csv` and `summary.md` (atomically).
-pub fn write_summary(out_dir: &Path, results: &[RunResult]) -> Result<()> {
+/// Writes `summary.csv`, `summary.md` and `summary.json` (atomically): every run, then each variant over
+/// its seeds, and its paired differences against the layout's baseline; and the layout's paper table.
+pub fn write_summary(out_dir: &Path, results: &[RunResult], layout: &SummaryLayout) -> Result<()> {
     let metric_names: Vec<String> = {
         let mut names: Vec<String> = Vec::new();
         for r in results {
@@ -186,7 +345,262 @@ pub fn write_summary(out_dir: &Path, results: &[RunResult]) -> Result<()> {
         csv.push('\n');
         md.push_str(" |\n");
     }
+    let groups = seed_groups(results, &metric_names, layout.baseline.as_deref());
+    md.push_str(&seed_tables(&groups));
+    let json = serde_json::to_string_pretty(&groups).expect("summary serialises");
     qean_io::fsutil::atomic_write(&out_dir.join("summary.csv"), csv.as_bytes())?;
     qean_io::fsutil::atomic_write(&out_dir.join("summary.md"), md.as_bytes())?;
+    qean_io::fsutil::atomic_write(&out_dir.join("summary.json"), json.as_bytes())?;
+    if let Some(kind) = layout.table {
+        crate::paper_table::write(out_dir, kind, &groups)?;
+    }
     Ok(())
+}
+
+/// One variant (at one grid point) over its seeds.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SeedGroup {
+    pub variant: String,
+    pub grid: Vec<(String, String)>,
+    pub seeds: Vec<u64>,
+    /// Quantity ("train_loss", "val_loss", then the metrics) → its interval over the seeds.
+    pub intervals: Vec<(String, Option<Interval>)>,
+    /// The baseline variant at the same grid point it is compared with, over the seeds both ran (none
+    /// for the baseline itself, or without one).
+    pub against: Option<String>,
+    pub paired: Vec<(String, Option<Interval>)>,
+}
+
+/// Each quantity's values per seed, for one run.
+fn quantities(r: &RunResult, metric_names: &[String]) -> Vec<(String, Option<f64>)> {
+    let mut q = vec![
+        ("train_loss".to_string(), r.train_loss),
+        ("val_loss".to_string(), r.val_loss),
+    ];
+    for m in metric_names {
+        let v = r.metrics.iter().find(|(n, _)| n == m).map(|(_, v)| *v);
+        q.push((m.clone(), v));
+    }
+    q
+}
+
+/// The finished runs grouped by (variant, grid point), in order of first appearance; each compared with
+/// the `baseline` variant at its grid point.
+pub fn seed_groups(
+    results: &[RunResult],
+    metric_names: &[String],
+    baseline: Option<&str>,
+) -> Vec<SeedGroup> {
+    let finished: Vec<&RunResult> = results
+        .iter()
+        .filter(|r| r.status != RunStatus::Interrupted)
+        .collect();
+    let mut keys: Vec<(String, Vec<(String, String)>)> = Vec::new();
+    for r in &finished {
+        let key = (r.run.variant.clone(), r.run.grid.clone());
+        if !keys.contains(&key) {
+            keys.push(key);
+        }
+    }
+    // Per group: each quantity's (seed, value) pairs.
+    let series = |key: &(String, Vec<(String, String)>)| -> Vec<(String, Vec<(u64, f64)>)> {
+        let runs: Vec<&&RunResult> = finished
+            .iter()
+            .filter(|r| r.run.variant == key.0 && r.run.grid == key.1)
+            .collect();
+        let names: Vec<String> = runs
+            .first()
+            .map(|r| {
+                quantities(r, metric_names)
+                    .into_iter()
+                    .map(|(n, _)| n)
+                    .collect()
+            })
+            .unwrap_or_default();
+        names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| {
+                let vals = runs
+                    .iter()
+                    .filter_map(|r| quantities(r, metric_names)[i].1.map(|v| (r.run.seed, v)))
+                    .collect();
+                (n.clone(), vals)
+            })
+            .collect()
+    };
+    keys.iter()
+        .map(|key| {
+            let own = series(key);
+            let first = baseline
+                .and_then(|b| keys.iter().find(|k| k.0 == b && k.1 == key.1))
+                .filter(|k| *k != key);
+            let base = first.map(series);
+            let values = |v: &[(u64, f64)]| v.iter().map(|(_, x)| *x).collect::<Vec<_>>();
+            SeedGroup {
+                variant: key.0.clone(),
+                grid: key.1.clone(),
+                seeds: finished
+                    .iter()
+                    .filter(|r| r.run.variant == key.0 && r.run.grid == key.1)
+                    .map(|r| r.run.seed)
+                    .collect(),
+                intervals: own
+                    .iter()
+                    .map(|(n, v)| (n.clone(), Interval::of(&values(v))))
+                    .collect(),
+                against: first.map(|k| k.0.clone()),
+                paired: match &base {
+                    Some(b) => own
+                        .iter()
+                        .zip(b)
+                        .map(|((n, v), (_, w))| (n.clone(), paired_difference(v, w)))
+                        .collect(),
+                    None => Vec::new(),
+                },
+            }
+        })
+        .collect()
+}
+
+/// A cell: "m ± h" (four significant digits), "m (1 seed)", or "-".
+fn interval_cell(i: &Option<Interval>) -> String {
+    let Some(i) = i else {
+        return "-".into();
+    };
+    let scale = i.mean.abs().max(i.half_width.unwrap_or(0.0));
+    let decimals = if scale == 0.0 {
+        3
+    } else {
+        (3 - scale.log10().floor() as i64).clamp(0, 6) as usize
+    };
+    i.display(decimals)
+}
+
+/// The markdown of the seed statistics: one table of intervals, one of paired differences (when a
+/// variant has a baseline), with how to read them.
+fn seed_tables(groups: &[SeedGroup]) -> String {
+    if groups.is_empty() {
+        return String::new();
+    }
+    let names: Vec<&String> = groups[0].intervals.iter().map(|(n, _)| n).collect();
+    let label = |g: &SeedGroup| {
+        let grid: Vec<String> = g.grid.iter().map(|(k, v)| format!("{k}={v}")).collect();
+        if grid.is_empty() {
+            g.variant.clone()
+        } else {
+            format!("{} ({})", g.variant, grid.join(", "))
+        }
+    };
+    let head = |first: &str| {
+        let mut h = format!("| {first} | seeds |");
+        for n in &names {
+            h.push_str(&format!(" {n} |"));
+        }
+        h.push('\n');
+        h.push_str(&"|---".repeat(names.len() + 2));
+        h.push_str("|\n");
+        h
+    };
+    let mut md = String::from(
+        "\n## Over seeds\n\nMean ± the half-width of its 95 % confidence interval (Student's t, n − 1 \
+         degrees of freedom, over the seeds each variant ran):\n\n",
+    );
+    md.push_str(&head("variant"));
+    for g in groups {
+        md.push_str(&format!("| {} | {} |", label(g), g.seeds.len()));
+        for (_, i) in &g.intervals {
+            md.push_str(&format!(" {} |", interval_cell(i)));
+        }
+        md.push('\n');
+    }
+    if groups.iter().any(|g| g.against.is_some()) {
+        md.push_str(
+            "\n## Paired differences\n\nEach variant minus the baseline at the same grid point, seed by seed \
+             (the seeds' shared part cancels), mean ± 95 % interval; * marks an interval that excludes 0 \
+             (a difference the seeds do not explain):\n\n",
+        );
+        md.push_str(&head("variant − baseline"));
+        for g in groups {
+            let Some(base) = &g.against else { continue };
+            md.push_str(&format!("| {} − {base} | {} |", label(g), g.seeds.len()));
+            for (_, i) in &g.paired {
+                let star = if i.is_some_and(|i| i.excludes_zero()) {
+                    " *"
+                } else {
+                    ""
+                };
+                md.push_str(&format!(" {}{star} |", interval_cell(i)));
+            }
+            md.push('\n');
+        }
+    }
+    md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn result(variant: &str, seed: u64, fid: f64) -> RunResult {
+        RunResult {
+            run: PlannedRun {
+                name: format!("{variant}-seed{seed}"),
+                variant: variant.into(),
+                seed,
+                grid: Vec::new(),
+                config: Default::default(),
+                run_dir: format!("/nowhere/{variant}-seed{seed}").into(),
+                evaluate: true,
+            },
+            steps: 10,
+            train_loss: Some(1.0 + seed as f64),
+            val_loss: None,
+            seconds: 1.0,
+            status: RunStatus::Finished,
+            metrics: vec![("fid_k".into(), fid)],
+        }
+    }
+
+    #[test]
+    fn variants_over_seeds_with_paired_differences() {
+        let results = [
+            result("baseline", 0, 60.1),
+            result("baseline", 1, 55.5),
+            result("baseline", 2, 71.3),
+            result("full", 0, 50.1),
+            result("full", 1, 46.5),
+            result("full", 2, 60.3),
+        ];
+        let groups = seed_groups(&results, &["fid_k".into()], Some("baseline"));
+        assert!(seed_groups(&results, &["fid_k".into()], None)
+            .iter()
+            .all(|g| g.against.is_none()));
+        assert_eq!(groups.len(), 2);
+        let (base, full) = (&groups[0], &groups[1]);
+        assert_eq!(
+            (base.seeds.clone(), base.against.clone()),
+            (vec![0, 1, 2], None)
+        );
+        let fid = base.intervals[2].1.unwrap();
+        assert!((fid.mean - 62.3).abs() < 1e-9);
+        assert!((fid.half_width.unwrap() - 20.18734477064501).abs() < 1e-9);
+        assert_eq!(full.against.as_deref(), Some("baseline"));
+        // Differences −10, −9, −11: mean −10, sd 1, t(2) = 4.3027 → ± 2.4841.
+        let d = full.paired[2].1.unwrap();
+        assert!((d.mean + 10.0).abs() < 1e-9);
+        assert!((d.half_width.unwrap() - 4.302652729749462 / 3f64.sqrt()).abs() < 1e-9);
+        assert!(d.excludes_zero());
+        // No validation loss anywhere: no interval.
+        assert_eq!(base.intervals[1], ("val_loss".into(), None));
+        let md = seed_tables(&groups);
+        assert!(
+            md.contains("| baseline | 3 | 2.000 ± 2.484 | - | 62.30 ± 20.19 |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| full − baseline | 3 | 0.000 ± 0.000 | - | -10.00 ± 2.48 * |"),
+            "{md}"
+        );
+    }
 }

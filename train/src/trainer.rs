@@ -211,6 +211,8 @@ struct Session<'f, F: Family> {
     device: Device,
     plain: Device,
     model: F::Model,
+    /// The moving average of the weights (`train.ema_decay` > 0), without autodiff ([`crate::ema`]).
+    ema: Option<F::Model>,
     /// The family's parameter groups (empty: one group of every parameter) and one optimiser per group.
     groups: Vec<HashSet<ParamId>>,
     optims: Vec<ModuleOptimizer>,
@@ -236,7 +238,10 @@ impl<F: Family> Session<'_, F> {
 
     fn validate(&mut self) -> Option<f64> {
         let set = self.val_set.as_ref()?;
-        let model = self.model.valid();
+        let model = match &self.ema {
+            Some(ema) => ema.clone(),
+            None => self.model.valid(),
+        };
         let v = self
             .family
             .validation_loss(&model, set, &self.config, &self.plain);
@@ -321,6 +326,14 @@ impl<F: Family> Session<'_, F> {
         let family_state = self.family.checkpoint_state();
         qean_io::fsutil::atomic_dir(&dir, |tmp| {
             qean_checkpoint::weights::save_weights(&self.model, &tmp.join(checkpoint::MODEL_FILE))?;
+            // Before the first update of a session the average is the weights themselves.
+            if let Some(ema) = self
+                .ema
+                .clone()
+                .or_else(|| (self.config.train.ema_decay > 0.0).then(|| self.model.valid()))
+            {
+                qean_checkpoint::weights::save_weights(&ema, &tmp.join(checkpoint::EMA_FILE))?;
+            }
             if let Some(v) = &family_state {
                 let p = tmp.join(qean_checkpoint::weights::FAMILY_STATE_FILE);
                 let json = serde_json::to_string_pretty(v).expect("JSON value serialises");
@@ -494,6 +507,14 @@ impl<'f, F: Family> Session<'f, F> {
                 &ck.dir.join(checkpoint::MODEL_FILE),
             )?;
         }
+        // The average as saved; a fresh run's (or one whose checkpoint has none) starts at the weights
+        // after the next update (built now, it would initialise the lazy parameters out of turn).
+        let ema = match resume.map(|ck| ck.dir.join(checkpoint::EMA_FILE)) {
+            Some(path) if config.train.ema_decay > 0.0 && path.is_file() => Some(
+                qean_checkpoint::weights::load_weights(model.valid(), &path)?,
+            ),
+            _ => None,
+        };
         // Parameter ids survive every update, so the groups are found once.
         let groups = family.param_groups(&model);
         let mut optims: Vec<ModuleOptimizer> =
@@ -541,6 +562,7 @@ impl<'f, F: Family> Session<'f, F> {
             device,
             plain,
             model,
+            ema,
             groups,
             optims,
             group_losses: Vec::new(),
@@ -636,6 +658,13 @@ fn run_loop<F: Family>(s: &mut Session<F>, opts: &TrainOptions) -> Result<TrainO
         }
         s.model = s.family.after_update(model);
         s.step += 1;
+        if s.config.train.ema_decay > 0.0 {
+            let d = crate::ema::decay_at(s.config.train.ema_decay, s.step);
+            s.ema = Some(match s.ema.take() {
+                Some(ema) => crate::ema::update(ema, &s.model, d),
+                None => s.model.valid(),
+            });
+        }
         s.last_loss = Some(value);
 
         let at_checkpoint = s.step.is_multiple_of(t.checkpoint_every) || s.step == total;
