@@ -2,6 +2,7 @@
 //! a tiny VQ-VAE then a tiny GPT trained on a synthetic dataset with exact resume and an idle T-Base, a sampled
 //! dance in every format, and bad inputs (missing or different-shaped VQ-VAE run, music shorter than one token).
 
+use qean_checkpoint::registry::Weights;
 mod common;
 use common::*;
 use std::path::Path;
@@ -61,9 +62,19 @@ fn train_small_vq(data: &Path, run: &Path, steps: u64) {
     train("control/vqvae_tiny.toml", data, run, &sets, false);
 }
 
+/// The trained parameters of a checkpoint whose names start with `prefix`.
 fn named(checkpoint: &Path, prefix: &str) -> Vec<qean_models::params::NamedParam> {
+    named_of(checkpoint, prefix, Weights::Trained)
+}
+
+/// `which` parameters of a checkpoint whose names start with `prefix`.
+fn named_of(
+    checkpoint: &Path,
+    prefix: &str,
+    which: Weights,
+) -> Vec<qean_models::params::NamedParam> {
     let ck = qean_checkpoint::checkpoint::resolve(checkpoint).unwrap();
-    ck.named_parameters(&burn::tensor::Device::flex())
+    ck.named_parameters_of(&burn::tensor::Device::flex(), which)
         .unwrap()
         .into_iter()
         .filter(|p| p.name.starts_with(prefix))
@@ -376,9 +387,10 @@ fn genre_stage_trains_resumes_exactly_and_steers_sampling() {
     for f in ["optimizer.bpk", "optimizer-1.bpk"] {
         assert!(last(&straight).join(f).is_file(), "{f}");
     }
-    // Only the genre module and D move; the GPT stays the GPT run's, bit for bit.
+    // Only the genre module and D move; the GPT stays the GPT run's, bit for bit (the weights it
+    // samples with: its moving average).
     let cks = checkpoints(&straight);
-    let frozen: Vec<(String, Vec<f32>)> = named(&last(&gpt), "")
+    let frozen: Vec<(String, Vec<f32>)> = named_of(&last(&gpt), "", Weights::Sampled)
         .into_iter()
         .map(|p| (format!("gpt.{}", p.name), p.values))
         .collect();

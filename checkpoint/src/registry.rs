@@ -46,20 +46,39 @@ impl FamilyModel {
     }
 }
 
+/// Which of a checkpoint's weights to load.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Weights {
+    /// What samplers and evaluations use: the moving average of a run trained with `train.ema_decay` > 0,
+    /// else the trained weights.
+    Sampled,
+    /// The weights training continues from (`model.bpk`, whose hash the trainer state records).
+    Trained,
+}
+
 impl Checkpoint {
     /// The weights a sampler or evaluation loads: the moving average of a run trained with
     /// `train.ema_decay` > 0, else the trained weights.
     pub fn weights_file(&self) -> std::path::PathBuf {
-        if self.config.train.ema_decay > 0.0 {
-            self.dir.join(EMA_FILE)
-        } else {
-            self.dir.join(MODEL_FILE)
+        self.file_of(Weights::Sampled)
+    }
+
+    /// The file holding `which` weights.
+    pub fn file_of(&self, which: Weights) -> std::path::PathBuf {
+        match which {
+            Weights::Sampled if self.config.train.ema_decay > 0.0 => self.dir.join(EMA_FILE),
+            _ => self.dir.join(MODEL_FILE),
         }
     }
 
-    /// The checkpoint's model with its weights ([`Checkpoint::weights_file`]), on `device`.
+    /// The checkpoint's model with the weights samplers use ([`Checkpoint::weights_file`]), on `device`.
     pub fn load_family(&self, device: &Device) -> Result<FamilyModel> {
-        let path = self.weights_file();
+        self.load_family_weights(device, Weights::Sampled)
+    }
+
+    /// The checkpoint's model with `which` weights, on `device`.
+    pub fn load_family_weights(&self, device: &Device, which: Weights) -> Result<FamilyModel> {
+        let path = self.file_of(which);
         Ok(match self.config.spec() {
             ModelSpec::FactQean(m) => FamilyModel::FactQean(load_weights(
                 DanceModel::new(m, device).map_err(|e| Error::at(&self.dir, e.to_string()))?,
@@ -108,9 +127,15 @@ impl Checkpoint {
         Err(Error::at(&self.dir, other))
     }
 
-    /// Every parameter of the checkpoint's model, whatever its family (inspection, export).
+    /// Every trained parameter of the checkpoint's model, whatever its family (inspection; their hash
+    /// is the recorded `params_hash`).
     pub fn named_parameters(&self, device: &Device) -> Result<Vec<NamedParam>> {
-        Ok(self.load_family(device)?.named_parameters())
+        self.named_parameters_of(device, Weights::Trained)
+    }
+
+    /// Every parameter of `which` weights (export writes the sampled ones).
+    pub fn named_parameters_of(&self, device: &Device, which: Weights) -> Result<Vec<NamedParam>> {
+        Ok(self.load_family_weights(device, which)?.named_parameters())
     }
 
     /// The error for a checkpoint of another family than the command takes (`what`: "a TSMT", …).

@@ -132,6 +132,30 @@ impl Default for TrainConfig {
     }
 }
 
+impl TrainConfig {
+    /// Every count at least 1 and the average's decay in [0, 1).
+    pub fn validate(&self) -> Result<(), String> {
+        for (key, value) in [
+            ("steps", self.steps),
+            ("batch_size", self.batch_size as u64),
+            ("checkpoint_every", self.checkpoint_every),
+            ("log_every", self.log_every),
+            ("keep_last", self.keep_last as u64),
+        ] {
+            if value == 0 {
+                return Err(format!("train.{key} must be at least 1"));
+            }
+        }
+        if !(0.0..1.0).contains(&self.ema_decay) {
+            return Err(format!(
+                "train.ema_decay must be in [0, 1), got {}",
+                self.ema_decay
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// A whole run config.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
@@ -371,28 +395,7 @@ impl RunConfig {
             arch,
             |t| t.validate(),
         )?;
-        let t = &self.train;
-        if t.steps == 0 {
-            return Err("train.steps must be at least 1".into());
-        }
-        if t.batch_size == 0 {
-            return Err("train.batch_size must be at least 1".into());
-        }
-        if t.checkpoint_every == 0 {
-            return Err("train.checkpoint_every must be at least 1".into());
-        }
-        if t.log_every == 0 {
-            return Err("train.log_every must be at least 1".into());
-        }
-        if !(0.0..1.0).contains(&t.ema_decay) {
-            return Err(format!(
-                "train.ema_decay must be in [0, 1), got {}",
-                t.ema_decay
-            ));
-        }
-        if t.keep_last == 0 {
-            return Err("train.keep_last must be at least 1".into());
-        }
+        self.train.validate()?;
         let o = &self.optim;
         let unit = |x: f64| (0.0..1.0).contains(&x);
         if !unit(o.beta1) || !unit(o.beta2) {
@@ -416,7 +419,7 @@ impl RunConfig {
                 o.grad_clip_norm
             ));
         }
-        self.schedule.validate(t.steps)?;
+        self.schedule.validate(self.train.steps)?;
         self.recipe
             .validate(self.model.motion_len, self.model.target_len)?;
         Ok(())

@@ -36,8 +36,9 @@ use serde::Deserialize;
 
 use crate::run::RunConfig;
 /// A QEAN paper table a sweep can be laid out as.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
+#[value(rename_all = "lowercase")]
 pub enum PaperTable {
     /// Table 1: every method's FID_k, FID_g, Dist_k, Dist_g and BeatAlign.
     Table1,
@@ -162,6 +163,33 @@ fn grid_combinations(path: &Path, sweep: &SweepConfig) -> Result<Vec<Vec<(String
     Ok(combos)
 }
 
+/// At least one variant, no name twice, and a baseline that names one of them.
+fn check_variants(path: &Path, sweep: &SweepConfig) -> Result<()> {
+    if sweep.variant.is_empty() {
+        return Err(Error::at(path, "no [[variant]] given"));
+    }
+    let mut names = std::collections::HashSet::new();
+    for v in &sweep.variant {
+        if !names.insert(v.name.clone()) {
+            return Err(Error::at(
+                path,
+                format!("variant `{}` is named twice", v.name),
+            ));
+        }
+    }
+    if let Some(b) = sweep
+        .baseline
+        .as_ref()
+        .filter(|b| !sweep.variant.iter().any(|v| &v.name == *b))
+    {
+        return Err(Error::at(
+            path,
+            format!("baseline `{b}` is not one of the variants"),
+        ));
+    }
+    Ok(())
+}
+
 /// Reads a sweep file and plans its runs; `extra` overrides (the CLI's `--set`) apply to every run.
 /// `out` defaults to `S-runs` beside the sweep file.
 pub fn plan(
@@ -187,28 +215,7 @@ pub fn plan_seeds(
     if let Some(seeds) = seeds {
         sweep.seeds = seeds.to_vec();
     }
-    if sweep.variant.is_empty() {
-        return Err(Error::at(path, "no [[variant]] given"));
-    }
-    let mut names = std::collections::HashSet::new();
-    for v in &sweep.variant {
-        if !names.insert(v.name.clone()) {
-            return Err(Error::at(
-                path,
-                format!("variant `{}` is named twice", v.name),
-            ));
-        }
-    }
-    if let Some(b) = sweep
-        .baseline
-        .as_ref()
-        .filter(|b| !sweep.variant.iter().any(|v| &v.name == *b))
-    {
-        return Err(Error::at(
-            path,
-            format!("baseline `{b}` is not one of the variants"),
-        ));
-    }
+    check_variants(path, &sweep)?;
     let here = path.parent().unwrap_or(Path::new("."));
     let out_dir = match out {
         Some(o) => o.to_path_buf(),

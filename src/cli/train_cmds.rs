@@ -4,21 +4,22 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use anyhow::{anyhow, bail};
+use anyhow::bail;
 use clap::Args;
-use qean_checkpoint::checkpoint::{self, Checkpoint};
+use qean_checkpoint::checkpoint;
 use qean_checkpoint::ProgressMode;
 use qean_config::run::string_override;
-use qean_config::RunConfig;
 use qean_train::{sweep, TrainOptions};
 
-/// Train a model from a TOML run config (SPEC §5): FACT and QEAN (random 240-frame windows of the train
-/// split, L2 loss on the first 20 output tokens), TSMT, the in-betweeners, the motion VQ-VAE, the GPT over
-/// its tokens, genre control over a GPT and the genre classifier (the config's model.arch), each with Adam
-/// and the configured step schedule (the genre stage: one Adam per optimiser group). Writes R/config.toml
-/// (resolved), R/metrics.csv (step, lr, loss, val_loss, seconds), R/train.log, R/loss.png and
-/// R/checkpoints/step-N/ (model, optimiser, trainer state, and the weights' moving average with
-/// train.ema_decay > 0; the last train.keep_last plus the best by validation loss). Ctrl-C writes a checkpoint and stops; `--resume R` continues exactly.
+/// Train a model from a TOML run config (SPEC §5): FACT and QEAN (random 240-frame windows of the
+/// train split, L2 loss on the first 20 output tokens), TSMT, the in-betweeners, the motion
+/// VQ-VAE, the GPT over its tokens, genre control over a GPT and the genre classifier (the
+/// config's model.arch), each with Adam and the configured step schedule (the genre stage: one
+/// Adam per optimiser group). Writes R/config.toml (resolved), R/metrics.csv (step, lr, loss,
+/// val_loss, seconds), R/train.log, R/loss.png and R/checkpoints/step-N/ (model, optimiser,
+/// trainer state, and the weights' moving average with train.ema_decay > 0; the last
+/// train.keep_last plus the best by validation loss). Ctrl-C writes a checkpoint and stops;
+/// `--resume R` continues exactly.
 ///
 /// Examples:
 ///   qean train --config configs/tiny/full.toml --data synth --run-dir runs/full
@@ -148,18 +149,20 @@ pub fn train(a: TrainArgs) -> anyhow::Result<i32> {
 
 /// Run a sweep: every variant × seed × grid combination of a sweep file is one training run in
 /// S-runs/<name>/ (finished runs are skipped, interrupted ones resumed), then S-runs/summary.md,
-/// summary.csv and summary.json: every run (variant, seed, steps, final train/val loss, time, metrics
-/// when evaluated), each variant over its seeds as mean ± 95 % confidence interval (Student's t), and,
-/// with `baseline = "NAME"` in the sweep file, each variant's paired differences against it (seed by
-/// seed; * where the interval excludes 0). A variant with `evaluate = false` is a stage others build
-/// on; in a string value `{seed}` is the run's seed and `{runs}` the output directory (e.g.
-/// "gpt.vqvae_run" = "{runs}/vqvae-seed{seed}"). With `table = "table1"` (or "table2") the sweep is also
-/// laid out as that QEAN paper table: S-runs/table1.md and table1.json.
+/// summary.csv and summary.json: every run (variant, seed, steps, final train/val loss, time,
+/// metrics when evaluated), each variant over its seeds as mean ± 95 % confidence interval
+/// (Student's t), and, with `baseline = "NAME"` in the sweep file, each variant's paired
+/// differences against it (seed by seed; * where the interval excludes 0). A variant with
+/// `evaluate = false` is a stage others build on; in a string value `{seed}` is the run's seed
+/// and `{runs}` the output directory (e.g. "gpt.vqvae_run" = "{runs}/vqvae-seed{seed}"). With
+/// `table = "table1"` (or "table2") the sweep is also laid out as that QEAN paper table:
+/// S-runs/table1.md, table1.json and the chart table1.png.
 ///
 /// Examples:
 ///   qean sweep --config configs/sweeps/table1-tiny.toml --data qean-demo/data
 ///   qean sweep --config configs/sweeps/tiny-ablation.toml --data synth --seeds 0,1
 #[derive(Args, Debug)]
+#[command(verbatim_doc_comment)]
 #[command(about = "Run a sweep of training runs (variants × seeds × grid) and summarise it")]
 pub struct SweepArgs {
     /// Sweep file (see configs/sweeps/).
@@ -254,73 +257,56 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
     print!("{md}");
     println!("summary: {}", out_dir.join("summary.csv").display());
     if let Some(t) = config.table {
-        println!(
-            "{}: {} (chart {})",
-            t.name(),
-            out_dir.join(format!("{}.md", t.name())).display(),
-            out_dir.join(format!("{}.png", t.name())).display()
-        );
+        let path = |ext: &str| {
+            out_dir
+                .join(format!("{}.{ext}", t.name()))
+                .display()
+                .to_string()
+        };
+        println!("{}: {} (chart {})", t.name(), path("md"), path("png"));
     }
     Ok(0)
 }
 
 /// Rebuild a sweep's summary, paper table and chart from its finished runs, without training or
-/// evaluating: reads each run's R/sweep.json (its variant, seed and metrics, written by `qean sweep`),
-/// R/metrics.csv and newest checkpoint, and writes S-runs/summary.{md,csv,json} and, for a sweep with a
-/// `table`, tableN.{md,json,png}. Use it after copying runs from several machines into one directory
-/// (`qean sweep --only` splits a sweep), or to lay the same runs out as another table.
+/// evaluating: reads each run's R/sweep.json (its variant, seed and metrics, written by `qean
+/// sweep`), R/metrics.csv and newest checkpoint, and writes S-runs/summary.{md,csv,json} and, for
+/// a sweep with a `table`, tableN.{md,json,png}. Use it after copying runs from several machines
+/// into one directory (`qean sweep --only` splits a sweep), or to lay the same runs out as
+/// another table.
 ///
 /// Examples:
 ///   qean report configs/sweeps/table1-tiny-runs
 ///   qean report ablation-runs --table table2 --baseline baseline
 #[derive(Args, Debug)]
+#[command(verbatim_doc_comment)]
 #[command(about = "Rebuild a sweep's summary, tables and charts from its finished runs")]
 pub struct ReportArgs {
     /// The sweep's output directory (S-runs).
     pub dir: PathBuf,
     /// Lay the runs out as this QEAN paper table (default: the sweep file's `table`).
-    #[arg(long, value_parser = ["table1", "table2"])]
-    pub table: Option<String>,
+    #[arg(long, value_enum)]
+    pub table: Option<sweep::PaperTable>,
     /// Paired differences against this variant (default: the sweep file's `baseline`).
     #[arg(long)]
     pub baseline: Option<String>,
 }
 
 pub fn report(a: ReportArgs) -> anyhow::Result<i32> {
-    // The sweep's own layout, with the flags' choices over it.
-    let saved = sweep::saved_layout(&a.dir)?;
-    let layout = sweep::SummaryLayout {
-        baseline: a.baseline.clone().or(saved.baseline),
-        table: match a.table.as_deref() {
-            Some("table1") => Some(sweep::PaperTable::Table1),
-            Some("table2") => Some(sweep::PaperTable::Table2),
-            _ => saved.table,
-        },
-    };
-    let results = sweep::collect(&a.dir)?;
-    if let Some(b) = &layout.baseline {
-        if !results.iter().any(|r| &r.run.variant == b) {
-            bail!(
-                "{}: baseline `{b}`: no run of that variant here",
-                a.dir.display()
-            );
-        }
-    }
-    sweep::write_summary(&a.dir, &results, &layout)?;
-    let md = std::fs::read_to_string(a.dir.join("summary.md"))?;
-    print!("{md}");
+    let (layout, runs) = sweep::report(&a.dir, a.table, a.baseline.clone())?;
+    print!("{}", std::fs::read_to_string(a.dir.join("summary.md"))?);
     println!(
-        "{} runs; summary: {}",
-        results.len(),
+        "{runs} runs; summary: {}",
         a.dir.join("summary.md").display()
     );
     if let Some(t) = layout.table {
-        println!(
-            "{}: {} (chart {})",
-            t.name(),
-            a.dir.join(format!("{}.md", t.name())).display(),
-            a.dir.join(format!("{}.png", t.name())).display()
-        );
+        let path = |ext: &str| {
+            a.dir
+                .join(format!("{}.{ext}", t.name()))
+                .display()
+                .to_string()
+        };
+        println!("{}: {} (chart {})", t.name(), path("md"), path("png"));
     }
     Ok(0)
 }
@@ -352,111 +338,14 @@ pub fn export(a: ExportArgs) -> anyhow::Result<i32> {
     Ok(0)
 }
 
-/// `qean inspect` of a checkpoint directory: step, config, optimiser state and the hash of every
-/// parameter value (recomputed from the weights and checked against the one recorded).
+/// `qean inspect` of a checkpoint directory ([`qean_train::inspect::checkpoint`]).
 pub fn inspect_checkpoint(dir: &Path) -> anyhow::Result<()> {
-    let ck = Checkpoint::read(dir)?;
-    let params = ck.named_parameters(&burn::tensor::Device::flex())?;
-    let hash = qean_models::params::params_hash(&params);
-    if hash != ck.state.params_hash {
-        bail!(
-            "{}: weights do not match the recorded params_hash ({} recorded, {} found)",
-            dir.display(),
-            ck.state.params_hash,
-            hash
-        );
-    }
-    let s = &ck.state;
-    let o = &ck.config.optim;
-    let opt = burn::optim::OptimizerRecord::load(dir.join(checkpoint::OPTIMIZER_FILE))
-        .map_err(|e| anyhow!("{}: {e}", dir.join(checkpoint::OPTIMIZER_FILE).display()))?;
-    let values: usize = params.iter().map(|p| p.values.len()).sum();
-    println!("checkpoint: {}", dir.display());
-    println!("step: {} of {}", s.step, s.total_steps);
-    println!("config: {}", ck.config.summary());
-    println!("parameters: {} tensors, {} values", params.len(), values);
-    println!("params_hash: {hash}");
-    println!(
-        "optimiser: adam beta1 {} beta2 {} epsilon {:e} weight_decay {}; {} state tensors; next lr {:e}",
-        o.beta1,
-        o.beta2,
-        o.epsilon,
-        o.weight_decay,
-        opt.len(),
-        s.next_lr
-    );
-    println!(
-        "stream: seed {} epoch {} position {}",
-        s.sampler.seed, s.sampler.epoch, s.sampler.position
-    );
-    let f = |x: Option<f64>| x.map(|v| format!("{v:.6e}")).unwrap_or_else(|| "-".into());
-    println!(
-        "loss: {}  val_loss: {}  best: {}",
-        f(s.last_loss),
-        f(s.val_loss),
-        s.best
-            .map(|b| format!("{:.6e} at step {}", b.val_loss, b.step))
-            .unwrap_or_else(|| "-".into())
-    );
-    println!("trained: {:.1} s on {}", s.elapsed_seconds, s.backend);
+    print!("{}", qean_train::inspect::checkpoint(dir)?);
     Ok(())
 }
 
-/// `qean inspect` of a run directory: config, checkpoints and the last metrics.
+/// `qean inspect` of a run directory ([`qean_train::inspect::run`]).
 pub fn inspect_run(dir: &Path) -> anyhow::Result<()> {
-    let config = RunConfig::load(&dir.join("config.toml"), &[])?;
-    println!("run: {}", dir.display());
-    println!("config: {}", config.summary());
-    let list = qean_checkpoint::run_dir::list_checkpoints(dir)?;
-    println!("checkpoints: {}", list.len());
-    for (_, path) in &list {
-        match Checkpoint::read(path) {
-            Ok(c) => println!(
-                "  {}  val_loss {}  params_hash {}",
-                path.display(),
-                c.state
-                    .val_loss
-                    .map(|v| format!("{v:.4e}"))
-                    .unwrap_or_else(|| "-".into()),
-                short_hash(&c.state.params_hash)
-            ),
-            Err(e) => println!("  {}  unreadable: {e}", path.display()),
-        }
-    }
-    if let Ok(rows) = qean_train::metrics_log::read(&dir.join("metrics.csv")) {
-        if let Some(r) = rows.last() {
-            println!(
-                "last row: step {} lr {:e} loss {} val_loss {}",
-                r.step,
-                r.lr,
-                r.loss
-                    .map(|v| format!("{v:.4e}"))
-                    .unwrap_or_else(|| "-".into()),
-                r.val_loss
-                    .map(|v| format!("{v:.4e}"))
-                    .unwrap_or_else(|| "-".into())
-            );
-        }
-    }
+    print!("{}", qean_train::inspect::run(dir)?);
     Ok(())
-}
-
-/// The first 16 characters of a parameter hash as `qean inspect` shows it (whole when shorter: the
-/// hash is read from a file a user may have edited).
-fn short_hash(hash: &str) -> String {
-    hash.chars().take(16).collect()
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn short_hash_takes_sixteen_characters_of_any_hash() {
-        assert_eq!(
-            super::short_hash("0123456789abcdef0123"),
-            "0123456789abcdef"
-        );
-        assert_eq!(super::short_hash("abc"), "abc");
-        assert_eq!(super::short_hash("ééééééééééééééééé"), "éééééééééééééééé");
-        assert_eq!(super::short_hash(""), "");
-    }
 }

@@ -12,6 +12,7 @@ use qean_models::params::{parameter_shapes, params_hash, write_safetensors};
 use qean_models::DanceModel;
 
 use qean_checkpoint::checkpoint::Checkpoint;
+use qean_checkpoint::registry::Weights;
 
 /// What an export wrote.
 #[derive(Debug, Clone, PartialEq)]
@@ -24,10 +25,20 @@ pub struct ExportSummary {
 /// Writes every parameter of the checkpoint's model to `out` (f32, Burn's layouts: see
 /// docs/weights.md). The header's metadata holds the model config, the step and the hash.
 pub fn export_safetensors(ck: &Checkpoint, out: &Path) -> Result<ExportSummary> {
-    let params = ck.named_parameters(&Device::flex())?;
+    // The weights samplers use: a run's moving average where it kept one.
+    let params = ck.named_parameters_of(&Device::flex(), Weights::Sampled)?;
     let hash = params_hash(&params);
+    let weights = if ck.config.train.ema_decay > 0.0 {
+        format!(
+            "moving average of the trained weights (train.ema_decay {})",
+            ck.config.train.ema_decay
+        )
+    } else {
+        "trained".to_string()
+    };
     let metadata = HashMap::from([
         ("format".to_string(), "qean-weights-1".to_string()),
+        ("weights".to_string(), weights),
         ("step".to_string(), ck.state.step.to_string()),
         ("params_hash".to_string(), hash.clone()),
         ("model_config".to_string(), ck.architecture_toml()),

@@ -13,6 +13,7 @@ pub mod genre;
 pub mod genre_clf;
 pub mod gpt;
 pub mod inbetween;
+pub mod inspect;
 pub mod logging;
 pub mod metrics_log;
 pub mod paper_table;

@@ -147,32 +147,11 @@ fn label(g: &SeedGroup) -> String {
     }
 }
 
-/// Builds the table from a sweep's seed groups (groups without dance metrics, e.g. a VQ-VAE stage, are
-/// left out).
-pub fn build(kind: PaperTable, groups: &[SeedGroup]) -> Table {
-    let columns = match kind {
-        PaperTable::Table1 => TABLE1,
-        PaperTable::Table2 => TABLE2,
-    };
-    let danced: Vec<&SeedGroup> = groups
-        .iter()
-        .filter(|g| value(&g.intervals, "fid_k").is_some())
-        .collect();
-    let rows = danced
-        .iter()
-        .map(|g| Row {
-            label: label(g),
-            seeds: g.seeds.clone(),
-            values: columns
-                .iter()
-                .map(|c| (c.key.to_string(), value(&g.intervals, c.key)))
-                .collect(),
-        })
-        .collect();
-    // The ground truth depends on the frames scored (after each family's seed): one row per distinct
-    // set of values, naming the variants scored that way.
+/// The reference set's rows: one per distinct set of values (the frames scored may differ by family),
+/// naming the variants scored that way.
+fn ground_rows(columns: &[Column], danced: &[&SeedGroup]) -> Vec<Row> {
     let mut ground: Vec<Row> = Vec::new();
-    for g in &danced {
+    for g in danced {
         let values: Vec<(String, Option<Interval>)> = GROUND
             .iter()
             .filter(|(k, _)| columns.iter().any(|c| c.key == *k))
@@ -198,6 +177,52 @@ pub fn build(kind: PaperTable, groups: &[SeedGroup]) -> Table {
             }),
         }
     }
+    ground
+}
+
+/// The paper's own rows of `kind`, by column key.
+fn published(kind: PaperTable) -> Vec<Published> {
+    fn rows<const N: usize>(table: &[(&str, [Option<f64>; N])], keys: [&str; N]) -> Vec<Published> {
+        table
+            .iter()
+            .map(|(name, v)| {
+                let values = keys.iter().map(|k| k.to_string()).zip(v.iter().copied());
+                (name.to_string(), values.collect())
+            })
+            .collect()
+    }
+    match kind {
+        PaperTable::Table1 => rows(
+            PUBLISHED1,
+            ["fid_k", "fid_g", "dist_k", "dist_g", "beat_align"],
+        ),
+        PaperTable::Table2 => rows(PUBLISHED2, ["fid_k", "fid_g", "beat_align"]),
+    }
+}
+
+/// Builds the table from a sweep's seed groups (groups without dance metrics, e.g. a VQ-VAE stage, are
+/// left out).
+pub fn build(kind: PaperTable, groups: &[SeedGroup]) -> Table {
+    let columns = match kind {
+        PaperTable::Table1 => TABLE1,
+        PaperTable::Table2 => TABLE2,
+    };
+    let danced: Vec<&SeedGroup> = groups
+        .iter()
+        .filter(|g| value(&g.intervals, "fid_k").is_some())
+        .collect();
+    let rows = danced
+        .iter()
+        .map(|g| Row {
+            label: label(g),
+            seeds: g.seeds.clone(),
+            values: columns
+                .iter()
+                .map(|c| (c.key.to_string(), value(&g.intervals, c.key)))
+                .collect(),
+        })
+        .collect();
+    let ground = ground_rows(columns, &danced);
     let paired = danced
         .iter()
         .filter_map(|g| {
@@ -212,34 +237,7 @@ pub fn build(kind: PaperTable, groups: &[SeedGroup]) -> Table {
             })
         })
         .collect();
-    let published = match kind {
-        PaperTable::Table1 => PUBLISHED1
-            .iter()
-            .map(|(name, v)| {
-                let keys = ["fid_k", "fid_g", "dist_k", "dist_g", "beat_align"];
-                (
-                    name.to_string(),
-                    keys.iter()
-                        .map(|k| k.to_string())
-                        .zip(v.iter().copied())
-                        .collect(),
-                )
-            })
-            .collect(),
-        PaperTable::Table2 => PUBLISHED2
-            .iter()
-            .map(|(name, v)| {
-                let keys = ["fid_k", "fid_g", "beat_align"];
-                (
-                    name.to_string(),
-                    keys.iter()
-                        .map(|k| k.to_string())
-                        .zip(v.iter().copied())
-                        .collect(),
-                )
-            })
-            .collect(),
-    };
+    let published = published(kind);
     Table {
         table: kind.name(),
         columns: columns
@@ -340,39 +338,32 @@ pub fn markdown(t: &Table) -> String {
             md.push_str(&line(r, RowKind::Paired));
         }
     }
-    md.push_str(
-        "\n## Published (QEAN paper, AIST++ at paper size: for reference, not comparable with the rows \
-         above)\n\n",
-    );
-    let keys: Vec<&String> = t
-        .published
-        .first()
-        .map(|(_, v)| v.iter().map(|(k, _)| k).collect())
-        .unwrap_or_default();
-    md.push_str("| method |");
-    for k in &keys {
-        let head = t
-            .columns
-            .iter()
-            .find(|(c, _)| c == *k)
-            .map(|(_, h)| h.as_str())
-            .unwrap_or(k);
-        md.push_str(&format!(" {head} |"));
-    }
-    md.push('\n');
-    md.push_str(&"|---".repeat(keys.len() + 1));
-    md.push_str("|\n");
-    for (name, values) in &t.published {
-        md.push_str(&format!("| {name} |"));
-        for (_, v) in values {
-            md.push_str(&format!(
-                " {} |",
-                v.map(|v| v.to_string()).unwrap_or_else(|| "-".into())
-            ));
-        }
-        md.push('\n');
-    }
+    md.push_str(&published_markdown(t));
     md
+}
+
+/// A panel's axis: every whisker of column `key` and the ground truth, from 0 when all are positive.
+fn axis_range(t: &Table, key: &str, ground: Option<f64>) -> (f64, f64) {
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for r in &t.rows {
+        if let Some(i) = value(&r.values, key) {
+            let h = i.half_width.unwrap_or(0.0);
+            lo = lo.min(i.mean - h);
+            hi = hi.max(i.mean + h);
+        }
+    }
+    if let Some(g) = ground {
+        lo = lo.min(g);
+        hi = hi.max(g);
+    }
+    if lo >= 0.0 {
+        lo = 0.0;
+    }
+    if hi - lo < 1e-12 {
+        hi = lo + 1.0;
+    }
+    (lo, hi)
 }
 
 /// The chart beside the table (`tableN.png`): one panel per measured column, each row's mean as a dot
@@ -404,26 +395,7 @@ pub fn chart(t: &Table) -> Canvas {
             .iter()
             .filter_map(|r| value(&r.values, key).map(|i| i.mean))
             .next();
-        // The axis spans every whisker and the ground truth.
-        let mut lo = f64::INFINITY;
-        let mut hi = f64::NEG_INFINITY;
-        for r in &t.rows {
-            if let Some(i) = value(&r.values, key) {
-                let h = i.half_width.unwrap_or(0.0);
-                lo = lo.min(i.mean - h);
-                hi = hi.max(i.mean + h);
-            }
-        }
-        if let Some(g) = ground {
-            lo = lo.min(g);
-            hi = hi.max(g);
-        }
-        if lo >= 0.0 {
-            lo = 0.0;
-        }
-        if hi - lo < 1e-12 {
-            hi = lo + 1.0;
-        }
+        let (lo, hi) = axis_range(t, key, ground);
         let (px0, px1) = ((x0 + 10) as f64, (x0 + panel_w - 20) as f64);
         let to_x = |v: f64| px0 + (px1 - px0) * (v - lo) / (hi - lo);
         let label: String = headline
@@ -490,6 +462,44 @@ pub fn chart(t: &Table) -> Canvas {
     c
 }
 
+/// The paper's own numbers as a markdown block.
+fn published_markdown(t: &Table) -> String {
+    let mut md = String::new();
+    md.push_str(
+        "\n## Published (QEAN paper, AIST++ at paper size: for reference, not comparable with the rows \
+         above)\n\n",
+    );
+    let keys: Vec<&String> = t
+        .published
+        .first()
+        .map(|(_, v)| v.iter().map(|(k, _)| k).collect())
+        .unwrap_or_default();
+    md.push_str("| method |");
+    for k in &keys {
+        let head = t
+            .columns
+            .iter()
+            .find(|(c, _)| c == *k)
+            .map(|(_, h)| h.as_str())
+            .unwrap_or(k);
+        md.push_str(&format!(" {head} |"));
+    }
+    md.push('\n');
+    md.push_str(&"|---".repeat(keys.len() + 1));
+    md.push_str("|\n");
+    for (name, values) in &t.published {
+        md.push_str(&format!("| {name} |"));
+        for (_, v) in values {
+            md.push_str(&format!(
+                " {} |",
+                v.map(|v| v.to_string()).unwrap_or_else(|| "-".into())
+            ));
+        }
+        md.push('\n');
+    }
+    md
+}
+
 /// Writes `tableN.md`, `tableN.json` and the chart `tableN.png` into `out_dir` (atomically).
 pub fn write(out_dir: &Path, kind: PaperTable, groups: &[SeedGroup]) -> Result<()> {
     let t = build(kind, groups);
@@ -523,6 +533,7 @@ mod tests {
             intervals: vec![
                 ("fid_k".into(), i(fid)),
                 ("beat_align".into(), i(&vec![0.25; fid.len()])),
+                ("dist_k".into(), i(&vec![7.0; fid.len()])),
                 ("gt_dist_k".into(), i(&vec![gt_dist_k; fid.len()])),
             ],
             against: against.map(Into::into),
@@ -562,7 +573,7 @@ mod tests {
         assert_eq!(t.paired.len(), 1);
         let md = markdown(&t);
         assert!(
-            md.contains("| fact | 3 | 62.3 ± 20.2 | - | - | - | 0.250 ± 0.000 |"),
+            md.contains("| fact | 3 | 62.3 ± 20.2 | - | 7.000 ± 0.000 | - | 0.250 ± 0.000 |"),
             "{md}"
         );
         assert!(

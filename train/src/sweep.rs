@@ -204,7 +204,33 @@ pub fn saved_layout(out_dir: &Path) -> Result<SummaryLayout> {
     }
 }
 
-/// `qean report SWEEP_DIR`: the finished runs of a sweep's output directory, rebuilt from their records
+/// `qean report SWEEP_DIR`: the summary, paper table and chart rebuilt from the finished runs ([`collect`]),
+/// laid out as the sweep saved it with `table` and `baseline` over it; returns the layout used and the
+/// number of runs. Nothing is written when the baseline names no run here.
+pub fn report(
+    out_dir: &Path,
+    table: Option<PaperTable>,
+    baseline: Option<String>,
+) -> Result<(SummaryLayout, usize)> {
+    let saved = saved_layout(out_dir)?;
+    let layout = SummaryLayout {
+        baseline: baseline.or(saved.baseline),
+        table: table.or(saved.table),
+    };
+    let results = collect(out_dir)?;
+    if let Some(b) = &layout.baseline {
+        if !results.iter().any(|r| &r.run.variant == b) {
+            return Err(Error::at(
+                out_dir,
+                format!("baseline `{b}`: no run of that variant here"),
+            ));
+        }
+    }
+    write_summary(out_dir, &results, &layout)?;
+    Ok((layout, results.len()))
+}
+
+/// The finished runs of a sweep's output directory, rebuilt from their records
 /// (`R/sweep.json`, `R/metrics.csv`, the newest checkpoint) without training or evaluating, in the
 /// sweep's order ([`write_summary`] then lays them out).
 pub fn collect(out_dir: &Path) -> Result<Vec<RunResult>> {

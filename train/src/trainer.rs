@@ -236,6 +236,17 @@ impl<F: Family> Session<'_, F> {
         self.elapsed_before + self.started.elapsed().as_secs_f64()
     }
 
+    /// The moving average after an update (`train.ema_decay` > 0): it starts at the weights themselves.
+    fn average(&mut self) {
+        if self.config.train.ema_decay > 0.0 {
+            let d = crate::ema::decay_at(self.config.train.ema_decay, self.step);
+            self.ema = Some(match self.ema.take() {
+                Some(ema) => crate::ema::update(ema, &self.model, d),
+                None => self.model.valid(),
+            });
+        }
+    }
+
     fn validate(&mut self) -> Option<f64> {
         let set = self.val_set.as_ref()?;
         let model = match &self.ema {
@@ -658,13 +669,7 @@ fn run_loop<F: Family>(s: &mut Session<F>, opts: &TrainOptions) -> Result<TrainO
         }
         s.model = s.family.after_update(model);
         s.step += 1;
-        if s.config.train.ema_decay > 0.0 {
-            let d = crate::ema::decay_at(s.config.train.ema_decay, s.step);
-            s.ema = Some(match s.ema.take() {
-                Some(ema) => crate::ema::update(ema, &s.model, d),
-                None => s.model.valid(),
-            });
-        }
+        s.average();
         s.last_loss = Some(value);
 
         let at_checkpoint = s.step.is_multiple_of(t.checkpoint_every) || s.step == total;

@@ -530,13 +530,20 @@ fn train_all(
     Ok(Some(results))
 }
 
-/// A stage marker: the stage's output is current if the marker names the same checkpoint.
+/// A stage marker: the stage's output is current if the marker names the same checkpoint (its step, the
+/// hash of its weights, and which weights sample: a retrained run at the same step is another model).
 fn marker_matches(path: &Path, ck: &Checkpoint) -> bool {
     std::fs::read_to_string(path).ok().as_deref() == Some(&marker_text(ck))
 }
 
 fn marker_text(ck: &Checkpoint) -> String {
-    format!("step {}\n", ck.state.step)
+    let weights = ck.weights_file();
+    format!(
+        "step {}\nparams_hash {}\nweights {}\n",
+        ck.state.step,
+        ck.state.params_hash,
+        weights.file_name().unwrap_or_default().to_string_lossy()
+    )
 }
 
 /// The dance of run `ck` to the held-out song under `out/dances/<dir_name>/` (a genre-control run dances
