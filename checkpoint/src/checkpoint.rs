@@ -65,6 +65,9 @@ pub struct TrainerState {
     pub elapsed_seconds: f64,
     /// [`qean_models::params::params_hash`] of the saved weights.
     pub params_hash: String,
+    /// The same of the weights' moving average (`ema.bpk`), for runs that keep one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ema_params_hash: Option<String>,
     /// Backend that produced it.
     pub backend: String,
 }
@@ -78,6 +81,15 @@ pub struct Checkpoint {
 }
 
 impl Checkpoint {
+    /// The hash of the weights samplers load: the moving average's where the run recorded one, else
+    /// the trained weights' (what a frozen stage and a reused dance must match).
+    pub fn sampled_hash(&self) -> &str {
+        self.state
+            .ema_params_hash
+            .as_deref()
+            .unwrap_or(&self.state.params_hash)
+    }
+
     /// Reads `state.json` and `config.toml` of a checkpoint directory.
     pub fn read(dir: &Path) -> Result<Checkpoint> {
         if !dir.is_dir() {

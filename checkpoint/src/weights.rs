@@ -37,12 +37,12 @@ pub fn check_frozen_hash(
     };
     let saved = read_family_state(ck)?;
     let hash = saved.as_ref().and_then(|s| s[key].as_str());
-    match hash.filter(|h| *h != frozen.state.params_hash) {
+    match hash.filter(|h| *h != frozen.sampled_hash()) {
         Some(h) => Err(Error::at(
             &frozen.dir,
             format!(
                 "not {what} was trained on (weights hash {} there, {h} when training began)",
-                frozen.state.params_hash
+                frozen.sampled_hash()
             ),
         )),
         None => Ok(()),

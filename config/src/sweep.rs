@@ -1,31 +1,41 @@
 //! `qean sweep --config S.toml`: a base run config, a list of variants (each a config file
 //! and/or overrides), seeds and a grid of any other fields; every combination is one run in
 //! `S-runs/<variant>-seed<k>[-<key>=<value>…]/`, trained in order (finished runs are skipped,
-//! interrupted ones resumed), then `S-runs/summary.md` and `summary.csv`.
+//! interrupted ones resumed), then `S-runs/summary.md`, `summary.csv` and `summary.json` (and
+//! `tableN.{md,json,png}` with `table`).
 //!
 //! ```toml
 //! base = "../tiny/baseline.toml"        # relative to this file
 //! seeds = [0, 1]
 //! evaluate = false                      # also compute the AIST++ metrics per run
 //! eval_frames = 1200                    # generated frames per sequence when evaluating
+//! baseline = "baseline"                 # paired differences against this variant (same seeds)
+//! table = "table2"                      # also laid out as the QEAN paper's Table 2
 //! [set]                                 # overrides shared by every run
 //! "train.steps" = 200
-//! baseline = "baseline"                # paired differences against this variant (same seeds)
 //! [[variant]]
 //! name = "baseline"
 //! [[variant]]
 //! name = "spe"
 //! set = { "model.position" = "rotary" }
-//! [[variant]]                           # a stage another variant builds on: trained, not evaluated
+//! [grid]                                # every combination of these values
+//! "schedule.initial" = [1e-4, 3e-4]
+//! ```
+//!
+//! A variant can build on another's run of the same seed (`configs/sweeps/table1-tiny.toml`): in a
+//! string value `{seed}` is the run's seed and `{runs}` the sweep's output directory, and a stage that is
+//! only a base for others is not evaluated. (With a grid, run names carry the grid point too, so name
+//! such a base run in full.)
+//!
+//! ```toml
+//! [[variant]]
 //! name = "vqvae"
 //! config = "../control/vqvae_tiny.toml"
 //! evaluate = false
-//! [[variant]]                           # in a string value, `{seed}`: the run's seed; `{runs}`: the
-//! name = "gpt"                          # sweep's output directory
+//! [[variant]]
+//! name = "gpt"
 //! config = "../control/gpt_tiny.toml"
 //! set = { "gpt.vqvae_run" = "{runs}/vqvae-seed{seed}" }
-//! [grid]                                # every combination of these values
-//! "schedule.initial" = [1e-4, 3e-4]
 //! ```
 
 use std::collections::BTreeMap;
@@ -106,6 +116,8 @@ pub struct PlannedRun {
     pub run_dir: PathBuf,
     /// Whether the sweep evaluates this run (its variant's `evaluate`, else the sweep's).
     pub evaluate: bool,
+    /// Position in the whole plan (kept when `--only` trains a part): the order of the summary.
+    pub index: usize,
 }
 
 fn value_text(v: &toml::Value) -> String {
@@ -276,6 +288,7 @@ pub fn plan_seeds(
                         .collect(),
                     config,
                     evaluate: variant.evaluate.unwrap_or(sweep.evaluate),
+                    index: runs.len(),
                 });
             }
         }

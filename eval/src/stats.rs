@@ -63,9 +63,6 @@ fn beta_fraction(a: f64, b: f64, x: f64) -> f64 {
                 return h;
             }
         }
-        if (d * c - 1.0).abs() < 1e-15 {
-            break;
-        }
     }
     h
 }
@@ -158,12 +155,22 @@ impl Interval {
         })
     }
 
+    /// [`Interval::display`], noting "(n of N)" when fewer than the `seeds` that ran gave a value (a
+    /// non-finite score, or a seed the baseline lacks).
+    pub fn display_of(&self, decimals: usize, seeds: usize) -> String {
+        if self.n < seeds {
+            format!("{} ({} of {seeds})", self.display(decimals), self.n)
+        } else {
+            self.display(decimals)
+        }
+    }
+
     /// Whether the interval excludes zero (a paired difference that seeds do not explain).
     pub fn excludes_zero(&self) -> bool {
         self.half_width.is_some_and(|h| self.mean.abs() > h)
     }
 
-    /// "m ± h" with `digits` significant decimals ("m (1 seed)" without an interval).
+    /// "m ± h" with `decimals` places after the point ("m (1 seed)" without an interval).
     pub fn display(&self, decimals: usize) -> String {
         match self.half_width {
             Some(h) => format!("{:.*} ± {:.*}", decimals, self.mean, decimals, h),

@@ -47,9 +47,11 @@ struct Mix {
 
 impl ModuleMapper for Mix {
     fn map_float<const D: usize>(&mut self, param: Param<Tensor<D>>) -> Param<Tensor<D>> {
-        let Some(cur) = self.current.float.remove(&param.id) else {
-            return param;
-        };
+        let cur = self
+            .current
+            .float
+            .remove(&param.id)
+            .expect("the average and the model share parameter ids");
         let d = self.decay;
         param.map(|e| {
             let dims = e.dims();
@@ -78,10 +80,16 @@ impl ModuleMapper for Mix {
 pub fn update<M: Module>(ema: M, model: &M, decay: f64) -> M {
     let mut current = Collect::default();
     model.valid().visit(&mut current);
-    ema.map(&mut Mix {
+    let mut mix = Mix {
         current,
         decay: decay as f32,
-    })
+    };
+    let ema = ema.map(&mut mix);
+    assert!(
+        mix.current.float.is_empty(),
+        "every parameter of the model has its average"
+    );
+    ema
 }
 
 #[cfg(test)]

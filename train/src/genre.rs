@@ -408,7 +408,7 @@ impl Family for GenreFamily {
         let gpt = self.gpt.as_ref()?;
         let mut state = self.base.checkpoint_state()?;
         state["gpt_checkpoint"] = serde_json::json!(gpt.checkpoint.dir);
-        state["gpt_params_hash"] = serde_json::json!(gpt.checkpoint.state.params_hash);
+        state["gpt_params_hash"] = serde_json::json!(gpt.checkpoint.sampled_hash());
         Some(state)
     }
 }

@@ -454,7 +454,7 @@ impl Family for GptFamily {
         let vq = self.vq.as_ref()?;
         Some(serde_json::json!({
             "vqvae_checkpoint": vq.checkpoint.dir,
-            "vqvae_params_hash": vq.checkpoint.state.params_hash,
+            "vqvae_params_hash": vq.checkpoint.sampled_hash(),
         }))
     }
 }

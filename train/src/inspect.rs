@@ -40,12 +40,24 @@ pub fn checkpoint(dir: &Path) -> Result<String> {
     let _ = writeln!(t, "params_hash: {hash}");
     if ck.config.train.ema_decay > 0.0 {
         let avg = ck.named_parameters_of(&device, Weights::Sampled)?;
+        let avg_hash = qean_models::params::params_hash(&avg);
+        if let Some(recorded) = ck
+            .state
+            .ema_params_hash
+            .as_ref()
+            .filter(|h| **h != avg_hash)
+        {
+            return Err(Error::at(
+                dir.join(checkpoint::EMA_FILE),
+                format!("weights do not match the recorded ema_params_hash ({recorded} recorded, {avg_hash} found)"),
+            ));
+        }
         let _ = writeln!(
             t,
             "sampled weights: the moving average (train.ema_decay {}), {}, hash {}",
             ck.config.train.ema_decay,
             checkpoint::EMA_FILE,
-            qean_models::params::params_hash(&avg)
+            avg_hash
         );
     }
     let _ = writeln!(

@@ -251,10 +251,12 @@ pub fn build(kind: PaperTable, groups: &[SeedGroup]) -> Table {
     }
 }
 
-/// A cell: "m ± h" with three decimals (FID: one), "m (1 seed)", or "-".
-fn cell(key: &str, i: Option<Interval>) -> String {
+/// A cell: "m ± h" with three decimals (FID: one), "m (1 seed)", or "-"; "(n of N)" where fewer than
+/// the row's `seeds` gave a value.
+fn cell(key: &str, i: Option<Interval>, seeds: usize) -> String {
     let decimals = if key.contains("fid") { 1 } else { 3 };
-    i.map(|i| i.display(decimals)).unwrap_or_else(|| "-".into())
+    i.map(|i| i.display_of(decimals, seeds))
+        .unwrap_or_else(|| "-".into())
 }
 
 /// How a row's cells are written.
@@ -309,11 +311,11 @@ pub fn markdown(t: &Table) -> String {
                 RowKind::Ground => v
                     .map(|i| format!("{:.3}", i.mean))
                     .unwrap_or_else(|| "-".into()),
-                RowKind::Run => cell(key, v),
+                RowKind::Run => cell(key, v, r.seeds.len()),
                 RowKind::Paired if v.is_some_and(|i| i.excludes_zero()) => {
-                    format!("{} *", cell(key, v))
+                    format!("{} *", cell(key, v, r.seeds.len()))
                 }
-                RowKind::Paired => cell(key, v),
+                RowKind::Paired => cell(key, v, r.seeds.len()),
             };
             l.push_str(&format!(" {c} |"));
         }

@@ -1,7 +1,7 @@
 //! Running a sweep planned by [`qean_config::sweep::plan`]: every run trained in order (finished
 //! runs skipped, interrupted ones resumed), then `S-runs/summary.md`, `summary.csv` and `summary.json`: every
 //! run, then each variant over its seeds (mean ± 95 % confidence interval, Student's t) and its paired
-//! differences against the first variant (the same seeds).
+//! differences against the sweep's baseline variant (the same seeds).
 
 use std::path::Path;
 
@@ -87,9 +87,45 @@ pub struct RunRecord {
     pub evaluate: bool,
     /// The checkpoint step the metrics are of.
     pub step: u64,
-    /// The evaluator's key (empty when not evaluated).
+    /// The hash of the weights scored (the sampled ones; empty when not evaluated).
+    #[serde(default)]
+    pub weights: String,
+    /// The evaluator's key and the data scored (empty when not evaluated).
     pub eval_key: String,
-    pub metrics: Vec<(String, f64)>,
+    /// Metric name → value (`None`: not finite).
+    pub metrics: Vec<(String, Option<f64>)>,
+}
+
+/// A run's metrics (name, value).
+pub type Metrics = Vec<(String, f64)>;
+
+/// A run's metrics: those recorded for the same step, weights, data and evaluator, else computed now;
+/// with the key and weights hash to record.
+fn evaluate_or_reuse(
+    run: &PlannedRun,
+    step: u64,
+    e: &SweepEvaluator,
+) -> Result<(Metrics, String, String)> {
+    let weights = qean_checkpoint::checkpoint::resolve(&run.run_dir)?
+        .sampled_hash()
+        .to_string();
+    let data = run.config.data.dir.as_deref().unwrap_or(Path::new("-"));
+    let key = format!("{}; data {}", e.key, data.display());
+    let recorded = read_record(&run.run_dir)
+        .filter(|r| r.evaluate && r.step == step && r.eval_key == key && r.weights == weights);
+    let metrics = match recorded {
+        Some(r) => finite(&r.metrics),
+        None => (e.eval)(&run.run_dir)?,
+    };
+    Ok((metrics, key, weights))
+}
+
+/// The finite values of recorded metrics.
+fn finite(metrics: &[(String, Option<f64>)]) -> Vec<(String, f64)> {
+    metrics
+        .iter()
+        .filter_map(|(n, v)| v.map(|v| (n.clone(), v)))
+        .collect()
 }
 
 /// The record's file name in a run directory.
@@ -137,46 +173,29 @@ pub fn run(
         let rows = crate::metrics_log::read(&run.run_dir.join("metrics.csv")).unwrap_or_default();
         let train_loss = rows.iter().rev().find_map(|r| r.loss);
         let val_loss = rows.iter().rev().find_map(|r| r.val_loss);
-        let metrics = match evaluator.filter(|_| run.evaluate && !outcome.interrupted) {
-            Some(e) => {
-                let recorded = read_record(&run.run_dir)
-                    .filter(|r| r.step == outcome.step && r.eval_key == e.key && r.evaluate);
-                let metrics = match recorded {
-                    Some(r) => r.metrics,
-                    None => (e.eval)(&run.run_dir)?,
-                };
-                let record = RunRecord {
-                    index: k,
-                    name: run.name.clone(),
-                    variant: run.variant.clone(),
-                    seed: run.seed,
-                    grid: run.grid.clone(),
-                    evaluate: true,
-                    step: outcome.step,
-                    eval_key: e.key.clone(),
-                    metrics: metrics.clone(),
-                };
-                write_json(&run.run_dir.join(RECORD_FILE), &record)?;
-                metrics
-            }
-            None => {
-                if !outcome.interrupted {
-                    let record = RunRecord {
-                        index: k,
-                        name: run.name.clone(),
-                        variant: run.variant.clone(),
-                        seed: run.seed,
-                        grid: run.grid.clone(),
-                        evaluate: false,
-                        step: outcome.step,
-                        eval_key: String::new(),
-                        metrics: Vec::new(),
-                    };
-                    write_json(&run.run_dir.join(RECORD_FILE), &record)?;
-                }
-                vec![]
-            }
-        };
+        let (metrics, eval_key, weights) =
+            match evaluator.filter(|_| run.evaluate && !outcome.interrupted) {
+                Some(e) => evaluate_or_reuse(run, outcome.step, e)?,
+                None => (Vec::new(), String::new(), String::new()),
+            };
+        if !outcome.interrupted {
+            let record = RunRecord {
+                index: run.index,
+                name: run.name.clone(),
+                variant: run.variant.clone(),
+                seed: run.seed,
+                grid: run.grid.clone(),
+                evaluate: !eval_key.is_empty(),
+                step: outcome.step,
+                weights,
+                eval_key,
+                metrics: metrics
+                    .iter()
+                    .map(|(n, v)| (n.clone(), v.is_finite().then_some(*v)))
+                    .collect(),
+            };
+            write_json(&run.run_dir.join(RECORD_FILE), &record)?;
+        }
         results.push(RunResult {
             run: run.clone(),
             steps: outcome.step,
@@ -241,8 +260,10 @@ pub fn collect(out_dir: &Path) -> Result<Vec<RunResult>> {
         if !dir.join(RECORD_FILE).is_file() {
             continue;
         }
-        let record = read_record(&dir)
-            .ok_or_else(|| Error::at(dir.join(RECORD_FILE), "malformed sweep record"))?;
+        let path = dir.join(RECORD_FILE);
+        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+        let record: RunRecord = serde_json::from_str(&text)
+            .map_err(|e| Error::at(&path, format!("malformed sweep record: {e}")))?;
         records.push((record, dir));
     }
     if records.is_empty() {
@@ -251,11 +272,20 @@ pub fn collect(out_dir: &Path) -> Result<Vec<RunResult>> {
             "no finished sweep runs here (no */sweep.json): run `qean sweep` first",
         ));
     }
-    records.sort_by_key(|(r, _)| r.index);
+    records.sort_by(|(a, da), (b, db)| (a.index, da).cmp(&(b.index, db)));
     let mut results = Vec::new();
     for (r, dir) in records {
         let rows = crate::metrics_log::read(&dir.join("metrics.csv")).unwrap_or_default();
         let ck = qean_checkpoint::checkpoint::resolve(&dir)?;
+        if r.step != ck.state.step {
+            tracing::warn!(
+                "{}: its record is of step {}, its newest checkpoint is step {}: left out (run the sweep again)",
+                dir.display(),
+                r.step,
+                ck.state.step
+            );
+            continue;
+        }
         results.push(RunResult {
             run: PlannedRun {
                 name: r.name,
@@ -265,13 +295,14 @@ pub fn collect(out_dir: &Path) -> Result<Vec<RunResult>> {
                 config: ck.config.clone(),
                 run_dir: dir,
                 evaluate: r.evaluate,
+                index: r.index,
             },
             steps: ck.state.step,
             train_loss: rows.iter().rev().find_map(|x| x.loss),
             val_loss: rows.iter().rev().find_map(|x| x.val_loss),
             seconds: ck.state.elapsed_seconds,
             status: RunStatus::FinishedEarlier,
-            metrics: r.metrics,
+            metrics: finite(&r.metrics),
         });
     }
     Ok(results)
@@ -489,8 +520,9 @@ pub fn seed_groups(
         .collect()
 }
 
-/// A cell: "m ± h" (four significant digits), "m (1 seed)", or "-".
-fn interval_cell(i: &Option<Interval>) -> String {
+/// A cell: "m ± h" (four significant digits), "m (1 seed)", or "-"; "(n of N)" where fewer than the
+/// group's `seeds` gave a value.
+fn interval_cell(i: &Option<Interval>, seeds: usize) -> String {
     let Some(i) = i else {
         return "-".into();
     };
@@ -500,7 +532,7 @@ fn interval_cell(i: &Option<Interval>) -> String {
     } else {
         (3 - scale.log10().floor() as i64).clamp(0, 6) as usize
     };
-    i.display(decimals)
+    i.display_of(decimals, seeds)
 }
 
 /// The markdown of the seed statistics: one table of intervals, one of paired differences (when a
@@ -536,7 +568,7 @@ fn seed_tables(groups: &[SeedGroup]) -> String {
     for g in groups {
         md.push_str(&format!("| {} | {} |", label(g), g.seeds.len()));
         for (_, i) in &g.intervals {
-            md.push_str(&format!(" {} |", interval_cell(i)));
+            md.push_str(&format!(" {} |", interval_cell(i, g.seeds.len())));
         }
         md.push('\n');
     }
@@ -556,7 +588,7 @@ fn seed_tables(groups: &[SeedGroup]) -> String {
                 } else {
                     ""
                 };
-                md.push_str(&format!(" {}{star} |", interval_cell(i)));
+                md.push_str(&format!(" {}{star} |", interval_cell(i, g.seeds.len())));
             }
             md.push('\n');
         }
@@ -578,6 +610,7 @@ mod tests {
                 config: Default::default(),
                 run_dir: format!("/nowhere/{variant}-seed{seed}").into(),
                 evaluate: true,
+                index: 0,
             },
             steps: 10,
             train_loss: Some(1.0 + seed as f64),

@@ -240,9 +240,11 @@ impl<F: Family> Session<'_, F> {
     fn average(&mut self) {
         if self.config.train.ema_decay > 0.0 {
             let d = crate::ema::decay_at(self.config.train.ema_decay, self.step);
+            // After the first update the average is the weights (also when resuming a checkpoint of
+            // step 0, whose saved average is the initial weights).
             self.ema = Some(match self.ema.take() {
-                Some(ema) => crate::ema::update(ema, &self.model, d),
-                None => self.model.valid(),
+                Some(ema) if self.step > 1 => crate::ema::update(ema, &self.model, d),
+                _ => self.model.valid(),
             });
         }
     }
@@ -284,6 +286,7 @@ impl<F: Family> Session<'_, F> {
             best: self.best,
             elapsed_seconds: self.elapsed(),
             params_hash,
+            ema_params_hash: None,
             backend: self.config.train.backend.to_string(),
         }
     }
@@ -332,18 +335,21 @@ impl<F: Family> Session<'_, F> {
                 p.name, self.step
             )));
         }
-        let state = self.state(qean_models::params::params_hash(&params));
+        // Before the first update of a session the average is the weights themselves.
+        let ema = self
+            .ema
+            .clone()
+            .or_else(|| (self.config.train.ema_decay > 0.0).then(|| self.model.valid()));
+        let mut state = self.state(qean_models::params::params_hash(&params));
+        state.ema_params_hash = ema
+            .as_ref()
+            .map(|m| qean_models::params::params_hash(&qean_models::params::named_parameters(m)));
         let config_text = self.config.to_toml().map_err(Error::msg)?;
         let family_state = self.family.checkpoint_state();
         qean_io::fsutil::atomic_dir(&dir, |tmp| {
             qean_checkpoint::weights::save_weights(&self.model, &tmp.join(checkpoint::MODEL_FILE))?;
-            // Before the first update of a session the average is the weights themselves.
-            if let Some(ema) = self
-                .ema
-                .clone()
-                .or_else(|| (self.config.train.ema_decay > 0.0).then(|| self.model.valid()))
-            {
-                qean_checkpoint::weights::save_weights(&ema, &tmp.join(checkpoint::EMA_FILE))?;
+            if let Some(ema) = &ema {
+                qean_checkpoint::weights::save_weights(ema, &tmp.join(checkpoint::EMA_FILE))?;
             }
             if let Some(v) = &family_state {
                 let p = tmp.join(qean_checkpoint::weights::FAMILY_STATE_FILE);

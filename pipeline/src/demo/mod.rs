@@ -541,7 +541,7 @@ fn marker_text(ck: &Checkpoint) -> String {
     format!(
         "step {}\nparams_hash {}\nweights {}\n",
         ck.state.step,
-        ck.state.params_hash,
+        ck.sampled_hash(),
         weights.file_name().unwrap_or_default().to_string_lossy()
     )
 }
