@@ -12,6 +12,7 @@ use crate::Error;
 use qean_render::canvas::*;
 
 use crate::run_report::RunReport;
+use crate::stats::mean_sd;
 
 /// The numbers read from one report (its first metrics mode).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -156,18 +157,6 @@ pub fn read_run(dir: &Path, tag: Option<&str>) -> crate::Result<RunCurve> {
         name,
         points,
     })
-}
-
-/// Mean and sample standard deviation.
-pub fn mean_sd(v: &[f64]) -> (f64, f64) {
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    let sd = if v.len() > 1 {
-        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-    } else {
-        0.0
-    };
-    (m, sd)
 }
 
 type Getter = fn(&Point) -> Option<f64>;

@@ -116,6 +116,18 @@ pub fn t_quantile(p: f64, df: f64) -> f64 {
     0.5 * (lo + hi)
 }
 
+/// Mean and sample standard deviation (n − 1; 0 for one value).
+pub fn mean_sd(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    let sd = if v.len() > 1 {
+        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    } else {
+        0.0
+    };
+    (m, sd)
+}
+
 /// A mean over seeds with its 95 % confidence interval: mean ± `half_width`
 /// (t_{0.975, n−1} · s / √n, s the sample standard deviation). `half_width` is `None` for one value.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -135,7 +147,7 @@ impl Interval {
         if n == 0 {
             return None;
         }
-        let mean = v.iter().sum::<f64>() / n as f64;
+        let (mean, sd) = mean_sd(&v);
         if n == 1 {
             return Some(Interval {
                 mean,
@@ -144,8 +156,6 @@ impl Interval {
                 n,
             });
         }
-        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-        let sd = var.sqrt();
         let half = t_quantile(0.975, (n - 1) as f64) * sd / (n as f64).sqrt();
         Some(Interval {
             mean,

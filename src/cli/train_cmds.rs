@@ -256,16 +256,20 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
     let md = std::fs::read_to_string(out_dir.join("summary.md"))?;
     print!("{md}");
     println!("summary: {}", out_dir.join("summary.csv").display());
-    if let Some(t) = config.table {
+    print_table_paths(&out_dir, config.table);
+    Ok(0)
+}
+
+/// Where a sweep's paper table and its chart are, if it has one.
+fn print_table_paths(dir: &Path, table: Option<sweep::PaperTable>) {
+    if let Some(t) = table {
         let path = |ext: &str| {
-            out_dir
-                .join(format!("{}.{ext}", t.name()))
+            dir.join(format!("{}.{ext}", t.name()))
                 .display()
                 .to_string()
         };
         println!("{}: {} (chart {})", t.name(), path("md"), path("png"));
     }
-    Ok(0)
 }
 
 /// Rebuild a sweep's summary, paper table and chart from its finished runs, without training or
@@ -299,15 +303,7 @@ pub fn report(a: ReportArgs) -> anyhow::Result<i32> {
         "{runs} runs; summary: {}",
         a.dir.join("summary.md").display()
     );
-    if let Some(t) = layout.table {
-        let path = |ext: &str| {
-            a.dir
-                .join(format!("{}.{ext}", t.name()))
-                .display()
-                .to_string()
-        };
-        println!("{}: {} (chart {})", t.name(), path("md"), path("png"));
-    }
+    print_table_paths(&a.dir, layout.table);
     Ok(0)
 }
 

@@ -12,7 +12,7 @@ use qean_io::error::Result;
 use qean_render::canvas::*;
 use serde::Serialize;
 
-use crate::sweep::SeedGroup;
+use crate::sweep::{seeds_table_head, SeedGroup};
 
 /// A column: its heading and the sweep quantity it shows.
 struct Column {
@@ -137,16 +137,6 @@ fn value(list: &[(String, Option<Interval>)], key: &str) -> Option<Interval> {
     list.iter().find(|(k, _)| k == key).and_then(|(_, i)| *i)
 }
 
-/// A group's label: its variant and grid point.
-fn label(g: &SeedGroup) -> String {
-    let grid: Vec<String> = g.grid.iter().map(|(k, v)| format!("{k}={v}")).collect();
-    if grid.is_empty() {
-        g.variant.clone()
-    } else {
-        format!("{} ({})", g.variant, grid.join(", "))
-    }
-}
-
 /// The reference set's rows: one per distinct set of values (the frames scored may differ by family),
 /// naming the variants scored that way.
 fn ground_rows(columns: &[Column], danced: &[&SeedGroup]) -> Vec<Row> {
@@ -214,7 +204,7 @@ pub fn build(kind: PaperTable, groups: &[SeedGroup]) -> Table {
     let rows = danced
         .iter()
         .map(|g| Row {
-            label: label(g),
+            label: g.label(),
             seeds: g.seeds.clone(),
             values: columns
                 .iter()
@@ -228,7 +218,7 @@ pub fn build(kind: PaperTable, groups: &[SeedGroup]) -> Table {
         .filter_map(|g| {
             let base = g.against.as_ref()?;
             Some(Row {
-                label: format!("{} − {base}", label(g)),
+                label: format!("{} − {base}", g.label()),
                 seeds: g.seeds.clone(),
                 values: columns
                     .iter()
@@ -284,16 +274,7 @@ pub fn markdown(t: &Table) -> String {
          dance against other songs' beats and \"frozen\" holds the seed's last pose: the chance levels \
          of that row's own dances.\n\n"
     );
-    let head = |first: &str| {
-        let mut h = format!("| {first} | seeds |");
-        for (_, c) in &t.columns {
-            h.push_str(&format!(" {c} |"));
-        }
-        h.push('\n');
-        h.push_str(&"|---".repeat(t.columns.len() + 2));
-        h.push_str("|\n");
-        h
-    };
+    let head = |first: &str| seeds_table_head(first, t.columns.iter().map(|(_, c)| c.as_str()));
     let line = |r: &Row, kind: RowKind| {
         let seeds = if r.seeds.is_empty() {
             String::new()

@@ -428,6 +428,34 @@ pub struct SeedGroup {
     pub paired: Vec<(String, Option<Interval>)>,
 }
 
+impl SeedGroup {
+    /// Its variant and grid point, as a row label.
+    pub fn label(&self) -> String {
+        let grid: Vec<String> = self.grid.iter().map(|(k, v)| format!("{k}={v}")).collect();
+        if grid.is_empty() {
+            self.variant.clone()
+        } else {
+            format!("{} ({})", self.variant, grid.join(", "))
+        }
+    }
+}
+
+/// The markdown head of a table over seeds: `first`, the seed count, then `columns`.
+pub(crate) fn seeds_table_head<'a>(
+    first: &str,
+    columns: impl ExactSizeIterator<Item = &'a str>,
+) -> String {
+    let n = columns.len();
+    let mut h = format!("| {first} | seeds |");
+    for c in columns {
+        h.push_str(&format!(" {c} |"));
+    }
+    h.push('\n');
+    h.push_str(&"|---".repeat(n + 2));
+    h.push_str("|\n");
+    h
+}
+
 /// Each quantity's values per seed, for one run.
 fn quantities(r: &RunResult, metric_names: &[String]) -> Vec<(String, Option<f64>)> {
     let mut q = vec![
@@ -541,32 +569,19 @@ fn seed_tables(groups: &[SeedGroup]) -> String {
     if groups.is_empty() {
         return String::new();
     }
-    let names: Vec<&String> = groups[0].intervals.iter().map(|(n, _)| n).collect();
-    let label = |g: &SeedGroup| {
-        let grid: Vec<String> = g.grid.iter().map(|(k, v)| format!("{k}={v}")).collect();
-        if grid.is_empty() {
-            g.variant.clone()
-        } else {
-            format!("{} ({})", g.variant, grid.join(", "))
-        }
-    };
-    let head = |first: &str| {
-        let mut h = format!("| {first} | seeds |");
-        for n in &names {
-            h.push_str(&format!(" {n} |"));
-        }
-        h.push('\n');
-        h.push_str(&"|---".repeat(names.len() + 2));
-        h.push_str("|\n");
-        h
-    };
+    let names: Vec<&str> = groups[0]
+        .intervals
+        .iter()
+        .map(|(n, _)| n.as_str())
+        .collect();
+    let head = |first: &str| seeds_table_head(first, names.iter().copied());
     let mut md = String::from(
         "\n## Over seeds\n\nMean ± the half-width of its 95 % confidence interval (Student's t, n − 1 \
          degrees of freedom, over the seeds each variant ran):\n\n",
     );
     md.push_str(&head("variant"));
     for g in groups {
-        md.push_str(&format!("| {} | {} |", label(g), g.seeds.len()));
+        md.push_str(&format!("| {} | {} |", g.label(), g.seeds.len()));
         for (_, i) in &g.intervals {
             md.push_str(&format!(" {} |", interval_cell(i, g.seeds.len())));
         }
@@ -581,7 +596,7 @@ fn seed_tables(groups: &[SeedGroup]) -> String {
         md.push_str(&head("variant − baseline"));
         for g in groups {
             let Some(base) = &g.against else { continue };
-            md.push_str(&format!("| {} − {base} | {} |", label(g), g.seeds.len()));
+            md.push_str(&format!("| {} − {base} | {} |", g.label(), g.seeds.len()));
             for (_, i) in &g.paired {
                 let star = if i.is_some_and(|i| i.excludes_zero()) {
                     " *"
