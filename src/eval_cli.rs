@@ -11,6 +11,7 @@ use qean_eval::config::{
 use qean_eval::curves::CurvesRequest;
 use qean_eval::dirs::{evaluate_dirs, DirRequest};
 use qean_eval::pfc::PfcVariant;
+use qean_eval::preset::ProtocolPreset;
 use qean_eval::run_report::{Protocol, SeedStart};
 use qean_models::autoregress::AudioPad;
 use qean_pipeline::evaluate::{RunEvalRequest, SamplingOverrides};
@@ -198,6 +199,17 @@ pub struct Args {
     /// many frames (SPEC §11.9; 2 = the paper's literal frame count).
     #[arg(long, default_value_t = 5)]
     pub beat_tol: usize,
+    /// Named protocols, comma-separated: bailando (our defaults), edge (30 fps, 5-s clips every 2.5 s, PFC)
+    /// or lodge (30 fps, 1,024 frames, 22 root-relative joints); the report lists every setting a preset
+    /// fixed and its source (docs/protocols.md). Directory mode: one table per preset; checkpoint mode
+    /// takes one (it also picks the splits and the dances' length: 1,200, 1,800 or 2,048 frames).
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        conflicts_with_all = ["positions", "max_frames", "pfc", "ba_segment"]
+    )]
+    pub protocol_preset: Vec<ProtocolPreset>,
     /// PFC, EDGE's physical foot-contact score (lower: feet that push the body): scored at ours (60 fps,
     /// every frame) or edge (30 fps, every second frame, as EDGE's tables; 3–5× ours on the same dance).
     #[arg(long, value_enum, default_value_t = PfcVariant::Ours)]
@@ -237,8 +249,20 @@ impl RootArg {
 }
 
 impl Args {
-    /// The configuration of each requested metrics mode.
+    /// The configuration of each requested metrics mode, for each protocol preset (if any).
     pub fn configs(&self) -> Vec<EvalConfig> {
+        let base = self.mode_configs();
+        if self.protocol_preset.is_empty() {
+            return base;
+        }
+        self.protocol_preset
+            .iter()
+            .flat_map(|p| base.iter().map(|c| p.apply(c.clone())))
+            .collect()
+    }
+
+    /// The configuration of each requested metrics mode, flag by flag.
+    fn mode_configs(&self) -> Vec<EvalConfig> {
         self.metrics_mode
             .iter()
             .map(|&metrics_mode| EvalConfig {
@@ -264,13 +288,20 @@ impl Args {
             .data
             .clone()
             .context("--run needs --data DIR (the AIST++-layout dataset)")?;
+        let max_frames = match self.protocol_preset.as_slice() {
+            [] => self.max_frames,
+            [p] => p.sample_frames(),
+            _ => {
+                bail!("checkpoint mode takes one --protocol-preset (directory mode scores several)")
+            }
+        };
         Ok(RunEvalRequest {
             run: run.to_path_buf(),
             checkpoint: self.checkpoint.clone(),
             data,
             protocol: self.protocol,
             seed_start: self.seed_start,
-            max_frames: self.max_frames,
+            max_frames,
             sampling: SamplingOverrides {
                 feedback_project: (self.feedback_project || self.raw_feedback)
                     .then_some(self.feedback_project),
@@ -422,7 +453,7 @@ pub fn run_curves(a: &CurvesArgs) -> anyhow::Result<String> {
 /// `qean eval --task inbetween`: Lin's reconstruction benchmark.
 fn run_inbetween(args: &Args) -> anyhow::Result<String> {
     use qean_keyframes::select::Strategy;
-    use qean_pipeline::inbetween_benchmark::{default_rows, run, IbMethod, InbetweenRequest};
+    use qean_pipeline::inbetween_benchmark::{rows_of, run, IbMethod, InbetweenRequest};
     let data = args
         .data
         .clone()
@@ -446,24 +477,7 @@ fn run_inbetween(args: &Args) -> anyhow::Result<String> {
         .map(|m| IbMethod::parse(m.trim()))
         .collect::<Result<Vec<_>, _>>()
         .map_err(anyhow::Error::msg)?;
-    let rows = if strategies.is_empty() && methods.is_empty() {
-        default_rows()
-    } else {
-        let strategies = if strategies.is_empty() {
-            vec![Strategy::Even]
-        } else {
-            strategies
-        };
-        let methods = if methods.is_empty() {
-            vec![IbMethod::Linear]
-        } else {
-            methods
-        };
-        strategies
-            .iter()
-            .flat_map(|&s| methods.iter().map(move |&m| (s, m)))
-            .collect()
-    };
+    let rows = rows_of(strategies, methods);
     let settings = crate::keyframe_settings::parse(&args.set)?;
     let (_, md) = run(&InbetweenRequest {
         data,

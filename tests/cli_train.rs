@@ -285,6 +285,64 @@ fn table1_tiny_sweep_scores_every_family_over_seeds() {
         qean().arg("report").arg(d.path().join("nowhere")),
         "nowhere",
     );
+
+    // The same runs scored again under a named protocol: re-evaluated (another evaluator), and the
+    // summary and the table say which protocol scored them.
+    let mut cmd = qean();
+    cmd.arg("sweep")
+        .arg("--config")
+        .arg(configs().join("sweeps/table1-tiny.toml"))
+        .arg("--data")
+        .arg(&data)
+        .arg("--out")
+        .arg(&out)
+        .args(["--seeds", "0,1", "--eval-frames", "60", "--plain"])
+        .args(["--only", "fact,qean", "--protocol-preset", "lodge"]);
+    for s in SMALL.iter().chain(&[
+        "train.steps=2",
+        "train.checkpoint_every=2",
+        "train.val_every=2",
+        "train.log_every=1",
+    ]) {
+        cmd.arg("--set").arg(s);
+    }
+    run_ok(&mut cmd);
+    let lodge = std::fs::read_to_string(out.join("table1.md")).unwrap();
+    assert!(lodge.contains("Protocol: preset `lodge`"), "{lodge}");
+    assert!(md.contains("Protocol: ours (no preset named"), "{md}");
+    let row = |t: &str| {
+        t.lines()
+            .find(|l| l.starts_with("| qean | 2 |"))
+            .unwrap()
+            .to_string()
+    };
+    assert_ne!(
+        row(&lodge),
+        row(&md),
+        "the same numbers under another protocol"
+    );
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(summary.contains("Protocol: preset `lodge`"), "{summary}");
+    let record = std::fs::read_to_string(out.join("qean-seed0/sweep.json")).unwrap();
+    assert!(record.contains("protocol preset lodge"), "{record}");
+
+    let bad = d.path().join("bad-preset.toml");
+    std::fs::write(
+        &bad,
+        format!(
+            "base = \"{}\"\nprotocol_preset = \"mint\"\n[[variant]]\nname = \"a\"\n",
+            configs().join("tiny/fact.toml").display()
+        ),
+    )
+    .unwrap();
+    assert_clean_failure(
+        qean()
+            .arg("sweep")
+            .arg("--config")
+            .arg(&bad)
+            .arg("--dry-run"),
+        "protocol_preset: unknown protocol preset `mint`; expected bailando, edge or lodge",
+    );
 }
 
 #[test]

@@ -40,13 +40,18 @@ fn write_npy(path: &Path, joints: &[Frame], f32_dtype: bool, flat: bool) {
 }
 
 fn fixture(dir: &Path) {
+    fixture_of(dir, 180, 240);
+}
+
+/// Four generated motions of `gen_frames` and seven reference motions of `ref_frames` (60 fps).
+fn fixture_of(dir: &Path, gen_frames: usize, ref_frames: usize) {
     std::fs::create_dir_all(dir.join("gen")).unwrap();
     std::fs::create_dir_all(dir.join("ref")).unwrap();
     for i in 0..4 {
         let name = aist_name("LO", i, i, i);
         write_npy(
             &dir.join(format!("gen/{name}.npy")),
-            &synthetic_motion(i as u64, 180),
+            &synthetic_motion(i as u64, gen_frames),
             i % 2 == 0,
             i == 1,
         );
@@ -55,7 +60,7 @@ fn fixture(dir: &Path) {
         let name = aist_name("LO", i % 6, i, i);
         write_npy(
             &dir.join(format!("ref/{name}.npy")),
-            &synthetic_motion(50 + i as u64, 240),
+            &synthetic_motion(50 + i as u64, ref_frames),
             false,
             false,
         );
@@ -290,4 +295,143 @@ fn generated_files_with_any_names_are_scored_through_an_explicit_pairing() {
         e.contains("\"nobody\", which is not among the generated motions"),
         "{e}"
     );
+}
+
+/// The same dances under two protocol presets: two reports, each naming its preset, in two tables
+/// (their numbers never share a column); Bailando's preset is our default protocol.
+#[test]
+fn the_same_dances_under_two_presets_give_two_labelled_reports() {
+    use qean_eval::preset::{JointSet, ProtocolPreset};
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    // 30 seed + 660 dance frames: 330 at 30 fps, EDGE's 150-frame slices at 0, 75 and 150.
+    fixture_of(d, 690, 700);
+    let out = d.join("report.json");
+    let argv = |extra: &[&str]| {
+        let mut v: Vec<String> = [
+            "qean-eval",
+            "--generated",
+            d.join("gen").to_str().unwrap(),
+            "--reference",
+            d.join("ref").to_str().unwrap(),
+            "--beats",
+            d.join("beats.json").to_str().unwrap(),
+            "--seed-frames",
+            "30",
+            "--metrics-mode",
+            "reference",
+            "--label",
+            "ours",
+        ]
+        .iter()
+        .map(|x| x.to_string())
+        .collect();
+        v.extend(extra.iter().map(|x| x.to_string()));
+        Args::parse_from(v)
+    };
+    let (file, table) = run(&argv(&[
+        "--protocol-preset",
+        "bailando,edge",
+        "--json",
+        out.to_str().unwrap(),
+    ]))
+    .unwrap();
+    let presets: Vec<_> = file.reports.iter().map(|r| r.config.preset).collect();
+    assert_eq!(
+        presets,
+        [Some(ProtocolPreset::Bailando), Some(ProtocolPreset::Edge)]
+    );
+    let (bailando, edge) = (&file.reports[0], &file.reports[1]);
+    assert_eq!((edge.n_generated, edge.n_reference), (12, 21));
+    assert!(edge.sequences.iter().all(|s| s.frames == 150));
+    assert_eq!(
+        edge.sequences[1].name,
+        format!("{}@001", aist_name("LO", 0, 0, 0))
+    );
+    assert!(edge.pfc.is_some() && edge.beat_align.is_some());
+    assert_ne!(bailando.fid_k, edge.fid_k);
+    for needle in [
+        "**Protocol preset `bailando`**",
+        "**Protocol preset `edge`**",
+        "| ours (bailando) |",
+        "| ours (edge) |",
+        "| Methods | PFC ↓ | BeatAlign ↑ | Dist_k ↑ | Dist_g ↑ |",
+        "| evaluated clips | 5 s (150 frames) every 2.5 s (75 frames) of each dance | inferred |",
+        "protocol preset edge: ",
+    ] {
+        assert!(table.contains(needle), "{needle} missing from\n{table}");
+    }
+    // Two tables: the Bailando block ends before the EDGE block begins.
+    let (b, e) = (
+        table.find("| ours (bailando) |").unwrap(),
+        table.find("**Protocol preset `edge`**").unwrap(),
+    );
+    assert!(b < e && !table[e..].contains("| ours (bailando) |"));
+    let back: EvaluationFile =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(back.reports[1].config, edge.config);
+
+    // Bailando's preset is our default protocol: the same numbers as no preset.
+    let (plain, _) = run(&argv(&[])).unwrap();
+    assert_eq!(plain.reports[0].fid_k, bailando.fid_k);
+    assert_eq!(plain.reports[0].beat_align, bailando.beat_align);
+
+    // Lodge: 22 body joints (66-D kinetic features), the first 1,024 frames at 30 fps.
+    let (lodge, table) = run(&argv(&["--protocol-preset", "lodge"])).unwrap();
+    let l = &lodge.reports[0];
+    assert_eq!(l.config.joints, JointSet::Body22);
+    assert!(l
+        .sequences
+        .iter()
+        .all(|s| s.kinetic.len() == 66 && s.frames == 330));
+    assert!(table.contains("22 body joints"), "{table}");
+}
+
+/// A preset fixes clip length, positions, PFC and BeatAlign's frames: setting one of them as well is
+/// refused, and checkpoint mode takes one preset.
+#[test]
+fn a_preset_and_a_setting_it_fixes_are_refused_together() {
+    for flag in [
+        ["--max-frames", "300"],
+        ["--positions", "mint_absolute"],
+        ["--pfc", "ours"],
+    ] {
+        let e = Args::try_parse_from(
+            [
+                "qean-eval",
+                "--generated",
+                "g",
+                "--reference",
+                "r",
+                "--protocol-preset",
+                "edge",
+            ]
+            .into_iter()
+            .chain(flag),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("cannot be used with"), "{e}");
+    }
+    let two = Args::parse_from([
+        "qean-eval",
+        "--run",
+        "R",
+        "--data",
+        "D",
+        "--protocol-preset",
+        "edge,lodge",
+    ]);
+    let e = two.run_request(Path::new("R")).unwrap_err().to_string();
+    assert!(e.contains("one --protocol-preset"), "{e}");
+    let one = Args::parse_from([
+        "qean-eval",
+        "--run",
+        "R",
+        "--data",
+        "D",
+        "--protocol-preset",
+        "lodge",
+    ]);
+    assert_eq!(one.run_request(Path::new("R")).unwrap().max_frames, 2048);
 }

@@ -285,3 +285,51 @@ fn the_feature_cache_killed_mid_way_ends_with_the_same_files() {
         }
     }
 }
+
+/// The tiny Table 1 (every family, the VQ-VAE → GPT → genre chain, evaluated) killed at random moments
+/// and run again ends with the same table, summary and records as an uninterrupted sweep.
+#[test]
+fn the_tiny_table1_sweep_killed_mid_way_writes_the_same_table() {
+    let d = tempfile::tempdir().unwrap();
+    let data = dataset(d.path());
+    let cmd = |out: &Path| {
+        let mut c = qean();
+        c.arg("sweep")
+            .arg("--config")
+            .arg(configs().join("sweeps/table1-tiny.toml"))
+            .arg("--data")
+            .arg(&data)
+            .arg("--out")
+            .arg(out)
+            .args(["--seeds", "0", "--eval-frames", "60", "--plain"]);
+        for s in SMALL.iter().chain(&[
+            "train.steps=4",
+            "train.checkpoint_every=2",
+            "train.val_every=2",
+            "train.log_every=1",
+        ]) {
+            c.arg("--set").arg(s);
+        }
+        c
+    };
+    let straight = d.path().join("straight");
+    let full = timed(&mut cmd(&straight));
+    let out = d.path().join("killed");
+    let mut rng = Rng::new("table1 sweep");
+    let mut kills = 0;
+    for k in 0..5u64 {
+        let lo = full.as_millis() as u64 * k / 6;
+        let delay = Duration::from_millis(lo / 2 + rng.below(full.as_millis() as u64 / 4));
+        if kill_after(&mut cmd(&out), delay) {
+            kills += 1;
+        }
+    }
+    println!("table1 sweep: {kills} of 5 attempts killed (uninterrupted: {full:?})");
+    assert!(kills >= 2, "only {kills} kills landed");
+    run_ok(&mut cmd(&out));
+    for f in ["table1.md", "table1.json", "summary.json"] {
+        let read = |dir: &Path| std::fs::read_to_string(dir.join(f)).unwrap();
+        assert_eq!(read(&straight), read(&out), "{f}");
+    }
+    assert_eq!(sweep_hashes(&straight), sweep_hashes(&out));
+}

@@ -11,6 +11,7 @@
 //! eval_frames = 1200                    # generated frames per sequence when evaluating
 //! baseline = "baseline"                 # paired differences against this variant (same seeds)
 //! table = "table2"                      # also laid out as the QEAN paper's Table 2
+//! protocol_preset = "edge"              # score under a named protocol (bailando, edge, lodge)
 //! [set]                                 # overrides shared by every run
 //! "train.steps" = 200
 //! [[variant]]
@@ -93,9 +94,12 @@ pub struct SweepConfig {
     /// Also write the summary in a QEAN paper table's layout (`table1.md`/`.json` or `table2.…`).
     #[serde(default)]
     pub table: Option<PaperTable>,
-    /// Generated frames per sequence when evaluating (default 1200, as the protocol).
+    /// Generated frames per sequence when evaluating (default 1200, as the protocol; a preset's own).
     #[serde(default)]
     pub eval_frames: Option<usize>,
+    /// A named evaluation protocol for every evaluated run: bailando, edge or lodge (docs/protocols.md).
+    #[serde(default)]
+    pub protocol_preset: Option<String>,
     #[serde(default)]
     pub set: BTreeMap<String, toml::Value>,
     #[serde(default)]

@@ -5,6 +5,7 @@ use clap::ValueEnum;
 use serde::{Deserialize, Serialize};
 
 use crate::pfc::PfcVariant;
+use crate::preset::{JointSet, ProtocolPreset, ReferenceCut, Slices, Splits};
 
 /// SPEC §7.6. `Reference` keeps the reference code's bugs (acceleration precedence, τ = 1/120);
 /// `Corrected` fixes both and changes nothing else.
@@ -25,6 +26,8 @@ pub enum PositionMode {
     #[default]
     ZeroStart,
     MintAbsolute,
+    /// Lodge: zero start, then every joint but the root relative to the root of its frame.
+    RootRelative,
 }
 
 /// SPEC §7.3: which geometric ("manual") extractor.
@@ -110,6 +113,38 @@ pub struct EvalConfig {
     /// PFC's frame rate: ours (60 fps) or EDGE's (30 fps).
     #[serde(default)]
     pub pfc: PfcVariant,
+    /// The named protocol these settings follow (`None`: set one by one).
+    #[serde(default)]
+    pub preset: Option<ProtocolPreset>,
+    /// The metrics see every `frame_stride`-th frame (2: 60 → 30 fps, EDGE and Lodge).
+    #[serde(default = "one")]
+    pub frame_stride: usize,
+    /// Frame rate of the sequences handed in (60 for AIST++; the protocol cut sets its clips' rate).
+    #[serde(default = "sixty")]
+    pub fps: f64,
+    /// Generated dances scored as overlapping clips (EDGE) instead of their first `max_frames`.
+    #[serde(default)]
+    pub slices: Option<Slices>,
+    /// Which frames of the reference motions are scored.
+    #[serde(default)]
+    pub reference_cut: ReferenceCut,
+    /// The joints of the kinetic and geometric features.
+    #[serde(default)]
+    pub joints: JointSet,
+    /// The kinetic features' frame time is 1/kinetic_fps (Bailando and Lodge: 1/60 whatever the data's rate).
+    #[serde(default = "sixty")]
+    pub kinetic_fps: f64,
+    /// Checkpoint mode's generated and reference sequences.
+    #[serde(default)]
+    pub splits: Splits,
+}
+
+fn one() -> usize {
+    1
+}
+
+fn sixty() -> f64 {
+    60.0
 }
 
 fn default_beat_tol() -> usize {
@@ -150,6 +185,14 @@ impl Default for EvalConfig {
             limit_slack_deg: default_slack(),
             omega_max_deg_s: default_omega_max(),
             pfc: PfcVariant::Ours,
+            preset: None,
+            frame_stride: 1,
+            fps: sixty(),
+            slices: None,
+            reference_cut: ReferenceCut::Whole,
+            joints: JointSet::Smpl24,
+            kinetic_fps: sixty(),
+            splits: Splits::TestValAgainstAll,
         }
     }
 }
@@ -157,8 +200,30 @@ impl Default for EvalConfig {
 impl EvalConfig {
     /// A one-line label naming every variant, printed under tables.
     pub fn label(&self) -> String {
+        let protocol = match self.preset {
+            Some(p) => format!("protocol preset {}: ", value_name(p)),
+            None => String::new(),
+        };
+        let rate = self.fps / self.frame_stride.max(1) as f64;
+        let cut = match (self.frame_stride, self.slices) {
+            (1, None) => String::new(),
+            (_, None) => format!(", at {rate} fps"),
+            (_, Some(s)) => format!(
+                ", at {rate} fps, clips of {} frames every {}",
+                s.length, s.stride
+            ),
+        };
+        let joints = match self.joints {
+            JointSet::Smpl24 => "",
+            JointSet::Body22 => ", 22 body joints",
+        };
+        let kinetic = if self.kinetic_fps == 60.0 {
+            String::new()
+        } else {
+            format!(", kinetic frame time 1/{}", self.kinetic_fps)
+        };
         format!(
-            "metrics_mode={}, positions={}, geometric={}, BeatAlign={} (music beats: {}, segment: {}), seed_frames={}, max_frames={}, music_offset={}, PFC={}",
+            "{protocol}metrics_mode={}, positions={}, geometric={}, BeatAlign={} (music beats: {}, segment: {}), seed_frames={}, max_frames={}, music_offset={}, PFC={}",
             value_name(self.metrics_mode),
             value_name(self.positions),
             value_name(self.geometric),
@@ -169,7 +234,9 @@ impl EvalConfig {
             self.max_frames,
             self.music_offset,
             value_name(self.pfc)
-        )
+        ) + &cut
+            + joints
+            + &kinetic
     }
 }
 

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{value_name, EvalConfig, MusicBeatSource};
 use crate::io::{load_joints_dir, read_beats_json, sequence_name, write_json_atomic};
+use crate::preset::ProtocolPreset;
 use crate::protocol::{evaluate, music_key};
 use crate::report::{render_markdown, MetricsReport};
 
@@ -132,20 +133,44 @@ pub fn evaluate_dirs(req: &DirRequest) -> crate::Result<(EvaluationFile, String)
     if let Some(path) = &req.json {
         write_json_atomic(path, &file)?;
     }
-    let labels: Vec<String> = file
-        .reports
+    let label_of = |r: &MetricsReport| {
+        let mut parts = Vec::new();
+        if req.configs.iter().any(|c| c.preset != r.config.preset) {
+            parts.extend(r.config.preset.map(value_name));
+        }
+        if req
+            .configs
+            .iter()
+            .any(|c| c.metrics_mode != r.config.metrics_mode)
+        {
+            parts.push(value_name(r.config.metrics_mode));
+        }
+        match parts.is_empty() {
+            true => req.label.clone(),
+            false => format!("{} ({})", req.label, parts.join(", ")),
+        }
+    };
+    // One table per protocol preset: numbers of two protocols never share a column.
+    let mut presets: Vec<Option<ProtocolPreset>> = Vec::new();
+    for r in &file.reports {
+        if !presets.contains(&r.config.preset) {
+            presets.push(r.config.preset);
+        }
+    }
+    let labels: Vec<String> = file.reports.iter().map(label_of).collect();
+    let table = presets
         .iter()
-        .map(|r| match file.reports.len() {
-            1 => req.label.clone(),
-            _ => format!("{} ({})", req.label, value_name(r.config.metrics_mode)),
+        .map(|p| {
+            let rows: Vec<(&str, &MetricsReport)> = labels
+                .iter()
+                .map(String::as_str)
+                .zip(&file.reports)
+                .filter(|(_, r)| r.config.preset == *p)
+                .collect();
+            render_markdown(&rows)
         })
-        .collect();
-    let rows: Vec<(&str, &MetricsReport)> = labels
-        .iter()
-        .map(String::as_str)
-        .zip(&file.reports)
-        .collect();
-    let table = render_markdown(&rows);
+        .collect::<Vec<_>>()
+        .join("\n");
     Ok((file, table))
 }
 

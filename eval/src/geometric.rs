@@ -116,9 +116,14 @@ impl BodyConstants {
 
 /// `time_per_frame=1/120` in the reference although AIST++ is 60 FPS; `corrected` uses 1/60.
 pub fn time_step(mode: MetricsMode) -> f64 {
+    time_step_at(mode, 60.0)
+}
+
+/// [`time_step`] for motion at `fps`: the reference keeps 1/120 whatever the rate (Lodge's code too).
+pub fn time_step_at(mode: MetricsMode, fps: f64) -> f64 {
     match mode {
         MetricsMode::Reference => 1.0 / 120.0,
-        MetricsMode::Corrected => 1.0 / 60.0,
+        MetricsMode::Corrected => 1.0 / fps,
     }
 }
 
@@ -281,6 +286,16 @@ pub fn geometric_features(
     variant: GeometricVariant,
     mode: MetricsMode,
 ) -> Result<Vec<f64>> {
+    geometric_features_at(joints, variant, mode, 60.0)
+}
+
+/// [`geometric_features`] of motion at `fps` (it sets the corrected mode's time step).
+pub fn geometric_features_at(
+    joints: &[Frame],
+    variant: GeometricVariant,
+    mode: MetricsMode,
+    fps: f64,
+) -> Result<Vec<f64>> {
     let t = joints.len();
     if t < MIN_FRAMES {
         return Err(Error::Invalid(format!(
@@ -288,7 +303,7 @@ pub fn geometric_features(
         )));
     }
     let table = feature_table(variant);
-    let tau = time_step(mode);
+    let tau = time_step_at(mode, fps);
     let mut counts = [0usize; GEOMETRIC_DIM];
     for f in 1..t {
         let (cur, prev) = (&joints[f], &joints[f - 1]);

@@ -15,15 +15,19 @@ const WINDOW: usize = 2;
 pub const MIN_FRAMES: usize = 4;
 
 /// [KE_h, KE_v, EE] for each of the 24 joints, joint-major.
-#[allow(clippy::needless_range_loop)] // j indexes the inner joint axis, as the reference loops do
 pub fn kinetic_features(joints: &[Frame], mode: MetricsMode) -> Result<Vec<f64>> {
+    kinetic_features_at(joints, mode, FRAME_TIME)
+}
+
+/// [`kinetic_features`] with frame time `dt` (a protocol at another rate).
+#[allow(clippy::needless_range_loop)] // j indexes the inner joint axis, as the reference loops do
+pub fn kinetic_features_at(joints: &[Frame], mode: MetricsMode, dt: f64) -> Result<Vec<f64>> {
     let t = joints.len();
     if t < MIN_FRAMES {
         return Err(Error::Invalid(format!(
             "kinetic features need at least {MIN_FRAMES} frames, got {t}"
         )));
     }
-    let dt = FRAME_TIME;
     let mut out = Vec::with_capacity(KINETIC_DIM);
     // Per joint, the window terms once per k (the reference recomputes them for each i):
     // d[k] = p[k] − p[k−1] (k ≥ 1) and the acceleration a[k] (1 ≤ k ≤ T−2).

@@ -151,6 +151,15 @@ pub fn s_music_d_of(
     reference: &[Sequence],
     cfg: &EvalConfig,
 ) -> Result<Option<f64>> {
+    if crate::preset::needs_cut(cfg) && !rollouts.is_empty() {
+        // A protocol's clips: each rollout cut the same way, scored as they are.
+        let cuts = rollouts
+            .iter()
+            .map(|set| crate::preset::cut(set, reference, cfg))
+            .collect::<Result<Vec<_>>>()?;
+        let sets: Vec<&[Sequence]> = cuts.iter().map(|c| c.generated.as_slice()).collect();
+        return s_music_d_of(&sets, &cuts[0].reference, &cuts[0].cfg);
+    }
     let ref_k: Vec<Vec<f64>> = reference
         .par_iter()
         .filter(|s| s.joints.len() >= crate::kinetic::MIN_FRAMES)

@@ -27,6 +27,7 @@ pub mod normalise;
 pub mod pfc;
 pub mod plausibility;
 pub mod positions;
+pub mod preset;
 pub mod protocol;
 pub mod report;
 pub mod run_report;

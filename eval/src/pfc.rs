@@ -43,9 +43,14 @@ pub enum PfcVariant {
 impl PfcVariant {
     /// Keep every `stride`-th frame of 60-fps motion; score at `fps`.
     pub fn stride_and_fps(self) -> (usize, f64) {
+        self.stride_and_fps_from(60.0)
+    }
+
+    /// The same for motion at `data_fps` (a protocol's clips may be 30 fps already).
+    pub fn stride_and_fps_from(self, data_fps: f64) -> (usize, f64) {
         match self {
-            PfcVariant::Ours => (1, 60.0),
-            PfcVariant::Edge => (2, 30.0),
+            PfcVariant::Ours => (1, data_fps),
+            PfcVariant::Edge => (((data_fps / 30.0).round() as usize).max(1), 30.0),
         }
     }
 }
@@ -96,7 +101,16 @@ pub fn pfc<'a>(
     sequences: impl IntoIterator<Item = &'a [Frame]>,
     variant: PfcVariant,
 ) -> Option<f64> {
-    let (stride, fps) = variant.stride_and_fps();
+    pfc_from(sequences, variant, 60.0)
+}
+
+/// [`pfc`] of motion at `data_fps`.
+pub fn pfc_from<'a>(
+    sequences: impl IntoIterator<Item = &'a [Frame]>,
+    variant: PfcVariant,
+    data_fps: f64,
+) -> Option<f64> {
+    let (stride, fps) = variant.stride_and_fps_from(data_fps);
     let scores: Vec<f64> = sequences
         .into_iter()
         .filter_map(|s| sequence_score(s, stride, fps, 1))

@@ -56,6 +56,18 @@ pub fn check_finite(name: &str, joints: &[Frame]) -> Result<()> {
 pub fn prepare(joints: &[Frame], mode: PositionMode) -> Vec<Frame> {
     match mode {
         PositionMode::MintAbsolute => joints.to_vec(),
+        PositionMode::RootRelative => prepare(joints, PositionMode::ZeroStart)
+            .into_iter()
+            .map(|mut frame| {
+                let root = frame[0];
+                for p in frame.iter_mut().skip(1) {
+                    for a in 0..3 {
+                        p[a] -= root[a];
+                    }
+                }
+                frame
+            })
+            .collect(),
         PositionMode::ZeroStart => {
             let Some(first) = joints.first() else {
                 return Vec::new();

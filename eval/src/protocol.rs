@@ -11,8 +11,8 @@ use crate::config::{BaVariant, EvalConfig};
 use crate::dist::average_distance;
 use crate::error::{Error, Result};
 use crate::fid::fid;
-use crate::geometric::geometric_features;
-use crate::kinetic::{self, kinetic_features};
+use crate::geometric::geometric_features_at;
+use crate::kinetic::{self, kinetic_features_at};
 use crate::li_metrics::li_metrics;
 use crate::motion_energy::{
     foot_contact, motion_energy, root_drift, DancingCount, EnergyReference, FootContact,
@@ -20,6 +20,7 @@ use crate::motion_energy::{
 };
 use crate::normalise::Normaliser;
 use crate::positions::{check_finite, prepare, Frame, Sequence};
+use crate::preset::JointSet;
 use crate::report::{Exclusion, Explosion, MetricsReport, SequenceMetrics};
 
 /// Music beats (60 FPS frame indices of the whole track) for a music ID such as `mBR0`.
@@ -34,10 +35,17 @@ pub struct Features {
 
 /// Kinetic and geometric features of an evaluated segment, positions prepared per `cfg`.
 pub fn features_of(joints: &[Frame], cfg: &EvalConfig) -> Result<Features> {
-    let p = prepare(joints, cfg.positions);
+    let mut p = prepare(joints, cfg.positions);
+    if cfg.joints == JointSet::Body22 {
+        p = crate::preset::body22(&p);
+    }
+    let mut kinetic = kinetic_features_at(&p, cfg.metrics_mode, 1.0 / cfg.kinetic_fps)?;
+    if cfg.joints == JointSet::Body22 {
+        kinetic.truncate(3 * 22);
+    }
     Ok(Features {
-        kinetic: kinetic_features(&p, cfg.metrics_mode)?,
-        geometric: geometric_features(&p, cfg.geometric, cfg.metrics_mode)?,
+        kinetic,
+        geometric: geometric_features_at(&p, cfg.geometric, cfg.metrics_mode, cfg.fps)?,
     })
 }
 
@@ -209,6 +217,11 @@ pub fn fid_within(
     normalise_by: &[Sequence],
     cfg: &EvalConfig,
 ) -> Result<(f64, f64)> {
+    if crate::preset::needs_cut(cfg) {
+        let c = crate::preset::cut(generated, reference, cfg)?;
+        let all = crate::preset::cut(&[], normalise_by, cfg)?;
+        return fid_within(&c.generated, &c.reference, &all.reference, &c.cfg);
+    }
     let (held, _) = hold_exploded(generated, cfg.seed_frames);
     let (gen, refs, _) = usable(&held, reference, cfg)?;
     let feats = |set: Vec<&[Frame]>| -> Result<Vec<Features>> {
@@ -301,9 +314,17 @@ fn beat_scores(
         if paired.is_empty() {
             warn!("no reference sequence has a generated sequence's name: no GT BeatAlign");
         }
+        // A reference clip starts `music_offset` frames into its music.
         gt_scores = paired
             .par_iter()
-            .map(|(r, id)| score_ground_truth(&r.joints, &beats[id]))
+            .map(|(r, id)| {
+                let shifted: Vec<usize> = beats[id]
+                    .iter()
+                    .filter(|&&b| b >= r.music_offset)
+                    .map(|&b| b - r.music_offset)
+                    .collect();
+                score_ground_truth(&r.joints, &shifted)
+            })
             .collect();
         for ((s, _), sc) in gen.iter().zip(&scores) {
             if pick(sc.unwrap_or_default(), cfg.ba_variant).is_none() {
@@ -436,8 +457,8 @@ impl Ground {
                     .map(|(s, len)| (s.joints.as_slice(), scored(*len))),
             ),
             reference_foot_contact: foot_contact(whole().map(|j| (j, 0..j.len()))),
-            pfc: crate::pfc::pfc(evaluated(), cfg.pfc),
-            gt_pfc: crate::pfc::pfc(whole(), cfg.pfc),
+            pfc: crate::pfc::pfc_from(evaluated(), cfg.pfc, cfg.fps),
+            gt_pfc: crate::pfc::pfc_from(whole(), cfg.pfc, cfg.fps),
             dancing: DancingCount::of(energies),
             // The reference's sequences from where the dances' scoring starts (after the seed).
             reference_dancing: DancingCount::of(
@@ -449,6 +470,22 @@ impl Ground {
             ),
         }
     }
+}
+
+/// Motion energy (the evaluated frames against the whole reference set; raw positions: differences do
+/// not depend on the zero-start), and how the dances meet the ground.
+fn energy_and_ground(
+    gen: &[(&Sequence, usize)],
+    refs: &[&Sequence],
+    cfg: &EvalConfig,
+) -> (Vec<MotionEnergy>, MotionEnergy, EnergyReference, Ground) {
+    let energy_reference = EnergyReference::fit(refs.iter().map(|s| s.joints.as_slice()));
+    let evaluated = gen
+        .iter()
+        .map(|(s, len)| &s.joints[cfg.seed_frames..cfg.seed_frames + len]);
+    let (seq_energy, set_energy) = motion_energy(evaluated, &energy_reference);
+    let ground = Ground::of(gen, refs, cfg, &seq_energy, &energy_reference);
+    (seq_energy, set_energy, energy_reference, ground)
 }
 
 /// The report's line per generated dance.
@@ -491,6 +528,9 @@ pub fn evaluate(
     music_beats: Option<BeatLookup>,
     cfg: &EvalConfig,
 ) -> Result<MetricsReport> {
+    if crate::preset::needs_cut(cfg) {
+        return evaluate_clips(generated, reference, music_beats, cfg);
+    }
     let (held, exploded) = hold_exploded(generated, cfg.seed_frames);
     let generated = held.as_slice();
     generated
@@ -521,15 +561,7 @@ pub fn evaluate(
         gt_scores,
         music_ids,
     } = beat_scores(&gen, &refs, music_beats, cfg, &mut excluded)?;
-    // Motion energy: the evaluated frames against the whole reference set (raw positions:
-    // differences do not depend on the zero-start).
-    let energy_reference = EnergyReference::fit(refs.iter().map(|s| s.joints.as_slice()));
-    let evaluated = || {
-        gen.iter()
-            .map(|(s, len)| &s.joints[cfg.seed_frames..cfg.seed_frames + len])
-    };
-    let (seq_energy, set_energy) = motion_energy(evaluated(), &energy_reference);
-    let ground = Ground::of(&gen, &refs, cfg, &seq_energy, &energy_reference);
+    let (seq_energy, set_energy, energy_reference, ground) = energy_and_ground(&gen, &refs, cfg);
 
     let (ba_b, n_b) = mean_of(scores.iter().map(|s| s.and_then(|s| s.bailando)));
     let (ba_m, n_m) = mean_of(scores.iter().map(|s| s.and_then(|s| s.mint)));
@@ -578,5 +610,52 @@ pub fn evaluate(
         li,
     };
     report.check_finite()?;
+    Ok(report)
+}
+
+/// [`evaluate`] under a protocol that scores clips ([`crate::preset::cut`]): the clips scored as they
+/// are, music beats on their grid; the report keeps the protocol's own configuration.
+fn evaluate_clips(
+    generated: &[Sequence],
+    reference: &[Sequence],
+    music_beats: Option<BeatLookup>,
+    cfg: &EvalConfig,
+) -> Result<MetricsReport> {
+    let cut = crate::preset::cut(generated, reference, cfg)?;
+    let stride = cut.stride;
+    let on_grid = |id: &str| -> Result<Vec<usize>> {
+        match music_beats {
+            Some(lookup) => Ok(crate::preset::beats_at_stride(&lookup(id)?, stride)),
+            None => Ok(Vec::new()),
+        }
+    };
+    let lookup: Option<BeatLookup> = music_beats.map(|_| &on_grid as BeatLookup);
+    let mut report = evaluate(&cut.generated, &cut.reference, lookup, &cut.cfg)?;
+    report.config = cfg.clone();
+    report.label = cfg.label();
+    // Motion energy, drift, foot contact and the dancing limits are no protocol's: they describe the
+    // dances at their own 60 fps, every frame after the seed against the whole reference motions (the
+    // clips' PFC stays, it is the protocol's).
+    let whole = EvalConfig {
+        frame_stride: 1,
+        slices: None,
+        reference_cut: crate::preset::ReferenceCut::Whole,
+        max_frames: usize::MAX,
+        ..cfg.clone()
+    };
+    let (held, _) = hold_exploded(generated, cfg.seed_frames);
+    let (gen, refs, _) = usable(&held, reference, &whole)?;
+    let (_, set_energy, energy_reference, ground) = energy_and_ground(&gen, &refs, &whole);
+    report.motion_energy = Some(set_energy);
+    report.energy_reference = Some(energy_reference);
+    report.root_drift = Some(ground.root_drift);
+    report.reference_root_drift = Some(ground.reference_root_drift);
+    report.foot_contact = Some(ground.foot_contact);
+    report.reference_foot_contact = Some(ground.reference_foot_contact);
+    report.dancing = Some(ground.dancing);
+    report.reference_dancing = Some(ground.reference_dancing);
+    for s in &mut report.sequences {
+        s.motion_energy = None; // a clip's own would be at the clip's rate
+    }
     Ok(report)
 }

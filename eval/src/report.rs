@@ -7,6 +7,7 @@ use crate::config::{value_name, EvalConfig};
 use crate::error::{Error, Result};
 use crate::li_metrics::LiMetrics;
 use crate::motion_energy::{DancingCount, EnergyReference, FootContact, MotionEnergy, RootDrift};
+use crate::preset::{ProtocolPreset, Source};
 
 /// Per generated sequence: its evaluated length, BeatAlign under both variants and the raw
 /// (unnormalised) features.
@@ -198,6 +199,9 @@ fn opt(v: Option<f64>, digits: usize) -> String {
 /// one row per report, then one line per report naming its variants.
 pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
     let mut out = String::new();
+    if let Some(p) = rows.first().and_then(|(_, r)| r.config.preset) {
+        out.push_str(&protocol_block(p, rows));
+    }
     out.push_str(
         "| Methods | FID_k ↓ | FID_g ↓ | Dist_k ↑ | Dist_g ↑ | BeatAlign ↑ | speed ratio → 1 | accel ratio → 1 | frozen ↓ | PFC ↓ | speed ratio per 5 s |\n",
     );
@@ -243,32 +247,12 @@ pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
         ));
     }
     for (name, r) in rows {
-        let dims = |d: &[usize], of: usize, what: &str| {
-            (!d.is_empty()).then(|| {
-                format!(
-                    "{what} over {} of {of} dimensions ({d:?} are constant over the reference set)",
-                    of - d.len()
-                )
-            })
-        };
-        let notes: Vec<String> = [
-            dims(
-                &r.constant_reference_dims_k,
-                crate::kinetic::KINETIC_DIM,
-                "FID_k/Dist_k",
-            ),
-            dims(
-                &r.constant_reference_dims_g,
-                crate::geometric::GEOMETRIC_DIM,
-                "FID_g/Dist_g",
-            ),
-        ]
-        .into_iter()
-        .flatten()
-        .chain(drift_note(r))
-        .chain(contact_note(r))
-        .chain(dancing_note(r))
-        .collect();
+        let notes: Vec<String> = constant_dims_notes(r)
+            .into_iter()
+            .chain(drift_note(r))
+            .chain(contact_note(r))
+            .chain(dancing_note(r))
+            .collect();
         if !notes.is_empty() {
             out.push_str(&format!("- {name}: {}\n", notes.join("; ")));
         }
@@ -291,6 +275,102 @@ pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
         ));
     }
     out
+}
+
+/// A named protocol's own table (its main columns only), the settings it fixed and their sources,
+/// above the full table.
+fn protocol_block(p: ProtocolPreset, rows: &[(&str, &MetricsReport)]) -> String {
+    let cols = p.columns();
+    let mut out = format!(
+        "**Protocol preset `{}`**: {}. Its main table's columns:\n\n| Methods | {} |\n|---|{}\n",
+        value_name(p),
+        p.title(),
+        cols.iter()
+            .map(|c| format!("{c} {}", arrow(c)))
+            .collect::<Vec<_>>()
+            .join(" | "),
+        "---|".repeat(cols.len())
+    );
+    if let Some((_, gt)) = rows.first() {
+        let cells: Vec<String> = cols.iter().map(|c| column(gt, c, true)).collect();
+        out.push_str(&format!("| AIST++ | {} |\n", cells.join(" | ")));
+    }
+    for (name, r) in rows {
+        let cells: Vec<String> = cols.iter().map(|c| column(r, c, false)).collect();
+        out.push_str(&format!("| {name} | {} |\n", cells.join(" | ")));
+    }
+    out.push_str("\nWhat the preset fixed (code: read in the group's code; inferred: their code is silent; deviation: where we differ, and why; docs/protocols.md has the evidence):\n\n| setting | value | source |\n|---|---|---|\n");
+    for s in p.settings() {
+        out.push_str(&format!(
+            "| {} | {} | {} |\n",
+            s.name,
+            s.value,
+            match s.source {
+                Source::Code => "code",
+                Source::Inferred => "inferred",
+                Source::Deviation => "deviation",
+            }
+        ));
+    }
+    out.push_str(&format!(
+        "\nDirectory mode scores the directories it is given as the generated and reference sets; \
+         checkpoint mode picks them as listed. Every metric under protocol `{}` (speed, acceleration, \
+         frozen share, drift, foot contact and the dancing limits are not the protocol's: they describe \
+         whole dances at 60 fps):\n\n",
+        value_name(p)
+    ));
+    out
+}
+
+fn arrow(column: &str) -> &'static str {
+    match column {
+        "FID_k" | "FID_g" | "PFC" => "↓",
+        _ => "↑",
+    }
+}
+
+/// One cell of a preset's table: the dances' value, or with `gt` the reference set's ("-" for FID).
+fn column(r: &MetricsReport, name: &str, gt: bool) -> String {
+    match (name, gt) {
+        ("FID_k", false) => format!("{:.2}", r.fid_k),
+        ("FID_g", false) => format!("{:.2}", r.fid_g),
+        ("Dist_k", false) => format!("{:.3}", r.div_k),
+        ("Dist_g", false) => format!("{:.3}", r.div_g),
+        ("Dist_k", true) => format!("{:.3}", r.gt_div_k),
+        ("Dist_g", true) => format!("{:.3}", r.gt_div_g),
+        ("BeatAlign", false) => opt(r.beat_align, 4),
+        ("BeatAlign", true) => opt(r.gt_beat_align, 4),
+        ("PFC", false) => opt(r.pfc, 3),
+        ("PFC", true) => opt(r.gt_pfc, 3),
+        _ => "-".into(),
+    }
+}
+
+/// Which feature dimensions FID and Dist left out (constant over the reference set), if any.
+fn constant_dims_notes(r: &MetricsReport) -> Vec<String> {
+    let dims = |d: &[usize], of: usize, what: &str| {
+        (!d.is_empty()).then(|| {
+            format!(
+                "{what} over {} of {of} dimensions ({d:?} are constant over the reference set)",
+                of - d.len()
+            )
+        })
+    };
+    let kinetic_dim = match r.config.joints {
+        crate::preset::JointSet::Smpl24 => crate::kinetic::KINETIC_DIM,
+        crate::preset::JointSet::Body22 => 3 * 22,
+    };
+    [
+        dims(&r.constant_reference_dims_k, kinetic_dim, "FID_k/Dist_k"),
+        dims(
+            &r.constant_reference_dims_g,
+            crate::geometric::GEOMETRIC_DIM,
+            "FID_g/Dist_g",
+        ),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
 }
 
 /// "root drift in 10 s: …" for a report that has it.

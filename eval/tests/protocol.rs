@@ -307,3 +307,38 @@ fn name_without_music_id_is_an_error_when_beats_are_needed() {
     // Without beats the name does not matter.
     assert!(evaluate(&g, &r, None, &cfg()).is_ok());
 }
+
+/// Under a clip protocol (EDGE: 30 fps, 5-s slices), ground-truth dances scored as if generated match
+/// the ground truth's own row clip by clip: the same clips, named alike, on the same music beats (a
+/// reference clip's beats shifted by where it starts in its music); a still figure's PFC is 0.
+#[test]
+fn ground_truth_scored_as_dances_matches_its_own_row_under_edge_clips() {
+    use qean_eval::preset::ProtocolPreset;
+    let reference: Vec<Sequence> = (0..4)
+        .map(|i| {
+            seq(
+                &aist_name("BR", i, i, i),
+                synthetic_motion(70 + i as u64, 700),
+            )
+        })
+        .collect();
+    let cfg = ProtocolPreset::Edge.apply(EvalConfig {
+        seed_frames: 0,
+        ..EvalConfig::default()
+    });
+    let beats = beats_every(23);
+    let rep = evaluate(&reference, &reference, Some(&beats), &cfg).unwrap();
+    // 700 frames → 350 at 30 fps → slices at 0, 75 and 150: 12 clips on each side.
+    assert_eq!((rep.n_generated, rep.n_reference), (12, 12));
+    assert_eq!(rep.n_gt_beat_align, 12);
+    let (ba, gt) = (rep.beat_align.unwrap(), rep.gt_beat_align.unwrap());
+    assert!((ba - gt).abs() < 1e-12, "{ba} vs {gt}");
+    assert!(rep.fid_k.abs() < 1e-6 && (rep.div_k - rep.gt_div_k).abs() < 1e-9);
+    assert_eq!(rep.pfc, rep.gt_pfc);
+
+    let still: Vec<Sequence> = (0..3)
+        .map(|i| seq(&aist_name("BR", i, i, i), vec![rest_pose(); 700]))
+        .collect();
+    let rep = evaluate(&still, &reference, Some(&beats), &cfg).unwrap();
+    assert_eq!(rep.pfc, Some(0.0));
+}

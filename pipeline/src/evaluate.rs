@@ -11,6 +11,7 @@ use qean_eval::config::{value_name, EvalConfig, MetricsMode, MusicBeatSource};
 use qean_eval::dirs::{music_beats, EvaluationFile};
 use qean_eval::io::write_json_atomic;
 use qean_eval::positions::Sequence;
+use qean_eval::preset::{ProtocolPreset, Splits};
 use qean_eval::protocol::evaluate;
 use qean_eval::report::{render_markdown, MetricsReport};
 use qean_eval::run_report::{
@@ -107,6 +108,11 @@ pub struct RunEvalRequest {
 impl RunEvalRequest {
     /// The request with the defaults of `qean eval --run`: paired protocol, 1200 frames, the run's
     /// sampling recipe, both metrics modes, Bailando's music beats, SMPL root, no baselines.
+    /// The splits the configurations' protocol scores (the first configuration's; presets agree).
+    pub fn splits(&self) -> Splits {
+        self.configs.first().map(|c| c.splits).unwrap_or_default()
+    }
+
     pub fn new(run: impl Into<PathBuf>, data: impl Into<PathBuf>) -> Self {
         RunEvalRequest {
             run: run.into(),
@@ -164,7 +170,8 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
         .join("eval")
         .join(eval_dir_name(ck.state.step, req.tag.as_deref())?);
     let ds = Dataset::open(&req.data)?;
-    let names = protocol_sequences(&ds)?;
+    let splits = req.splits();
+    let names = protocol_sequences(&ds, splits)?;
     let config = &ck.config;
     let seed_frames = config.seed_frames();
     let pairs = pairings(&names, req.protocol);
@@ -190,7 +197,7 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
         (&opts, seed_frames),
         req.root,
     )?;
-    let reference = reference_set(&ds, req.root)?;
+    let reference = reference_set(&ds, req.root, splits)?;
 
     let keys = generated
         .iter()
@@ -255,7 +262,11 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
 /// The AIST++ metrics of a run's newest checkpoint (checkpoint mode of qean-eval with the chance
 /// baselines, on the run's dataset): the `reference`-mode numbers, comparable with published
 /// tables, and the motion energy (speed and acceleration ratios, frozen share).
-pub fn checkpoint_metrics(run_dir: &Path, frames: usize) -> Result<Vec<(String, f64)>> {
+pub fn checkpoint_metrics(
+    run_dir: &Path,
+    frames: usize,
+    protocol: Option<ProtocolPreset>,
+) -> Result<Vec<(String, f64)>> {
     let config = qean_config::RunConfig::load(&run_dir.join("config.toml"), &[])?;
     let data = config
         .data
@@ -267,6 +278,9 @@ pub fn checkpoint_metrics(run_dir: &Path, frames: usize) -> Result<Vec<(String, 
         ..RunEvalRequest::new(run_dir, data)
     };
     req.configs.truncate(1); // the `reference` mode only
+    if let Some(p) = protocol {
+        req.configs = req.configs.drain(..).map(|c| p.apply(c)).collect();
+    }
     let report = evaluate_run(&req)?.report;
     let r = report
         .reports
@@ -313,6 +327,41 @@ pub fn checkpoint_metrics(run_dir: &Path, frames: usize) -> Result<Vec<(String, 
     Ok(out)
 }
 
+/// How a sweep scores its runs: [`checkpoint_metrics`] of `frames` generated frames per sequence (the
+/// preset's own length when none is given, else 1,200) under `protocol`.
+pub struct SweepScoring {
+    pub frames: usize,
+    pub protocol: Option<ProtocolPreset>,
+}
+
+impl SweepScoring {
+    pub fn new(frames: Option<usize>, protocol: Option<ProtocolPreset>) -> Self {
+        SweepScoring {
+            frames: frames
+                .or(protocol.map(|p| p.sample_frames()))
+                .unwrap_or(1200),
+            protocol,
+        }
+    }
+
+    /// The key a run's recorded metrics carry: recorded under another key, they are computed again.
+    pub fn key(&self) -> String {
+        let protocol = self.protocol.map_or(String::new(), |p| {
+            format!(", protocol preset {}", qean_eval::config::value_name(p))
+        });
+        format!(
+            "checkpoint mode, reference metrics, {} frames{protocol}",
+            self.frames
+        )
+    }
+
+    /// The metrics of a run's newest checkpoint.
+    pub fn metrics(&self, run_dir: &Path) -> qean_io::error::Result<Vec<(String, f64)>> {
+        checkpoint_metrics(run_dir, self.frames, self.protocol)
+            .map_err(|e| qean_io::error::Error::msg(format!("{e:#}")))
+    }
+}
+
 /// The request's metric configurations, scoring the frames after the seed, up to `req.max_frames`.
 fn eval_configs(req: &RunEvalRequest, seed_frames: usize) -> Vec<EvalConfig> {
     req.configs
@@ -320,7 +369,11 @@ fn eval_configs(req: &RunEvalRequest, seed_frames: usize) -> Vec<EvalConfig> {
         .map(|c| EvalConfig {
             seed_frames,
             music_offset: 0,
-            max_frames: req.max_frames,
+            // A protocol preset fixes its own clip length; the request's is how long the dances are.
+            max_frames: match c.preset {
+                Some(_) => c.max_frames,
+                None => req.max_frames,
+            },
             ..c.clone()
         })
         .collect()
@@ -362,10 +415,13 @@ fn eval_dir_name(step: u64, tag: Option<&str>) -> Result<String> {
     Ok(qean_eval::curves::eval_dir_name(step, tag))
 }
 
-/// The test and val sequences whose motion files exist (at least 2), with their music features cached.
-pub(crate) fn protocol_sequences(ds: &Dataset) -> Result<Vec<String>> {
+/// The test and val sequences (the test ones only under EDGE's splits) whose motion files exist (at
+/// least 2), with their music features cached.
+pub(crate) fn protocol_sequences(ds: &Dataset, splits: Splits) -> Result<Vec<String>> {
     let mut names = ds.split(Split::Test);
-    names.extend(ds.split(Split::Val));
+    if splits == Splits::TestValAgainstAll {
+        names.extend(ds.split(Split::Val));
+    }
     names.retain(|n| {
         ds.motion_path(n).is_file() || {
             tracing::warn!(
@@ -644,10 +700,19 @@ fn write_generated(
     Ok((generated, pairings))
 }
 
-/// The ground-truth reference set: every non-ignored motion, full length.
-pub(crate) fn reference_set(ds: &Dataset, root: qean_motion::FkRoot) -> Result<Vec<Sequence>> {
+/// The ground-truth reference set: every non-ignored motion (the test ones under EDGE's splits), full
+/// length.
+pub(crate) fn reference_set(
+    ds: &Dataset,
+    root: qean_motion::FkRoot,
+    splits: Splits,
+) -> Result<Vec<Sequence>> {
+    let names = match splits {
+        Splits::TestValAgainstAll => ds.all_sequences()?,
+        Splits::TestAgainstTest => ds.split(Split::Test),
+    };
     let mut reference = Vec::new();
-    for name in ds.all_sequences()? {
+    for name in names {
         let m = Motion::read_pkl(&ds.motion_path(&name))?;
         reference.push(Sequence::new(name.clone(), frames_of(m.joints(root))));
     }

@@ -95,7 +95,7 @@ pub struct ClfEvaluation {
 /// The classifier's confusion matrix (rows: true genre) on the ground-truth test + val sequences that name
 /// a genre, and how many those are.
 pub fn ground_truth_confusion(clf: &TrainedClf, ds: &Dataset) -> Result<(Vec<Vec<usize>>, usize)> {
-    let names = crate::evaluate::protocol_sequences(ds)?;
+    let names = crate::evaluate::protocol_sequences(ds, Default::default())?;
     let mut confusion = vec![vec![0usize; GENRES.len()]; GENRES.len()];
     let mut scored = 0;
     for name in &names {

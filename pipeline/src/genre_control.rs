@@ -97,7 +97,7 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
         )));
     }
     let ds = Dataset::open(&req.data)?;
-    let names = crate::evaluate::protocol_sequences(&ds)?;
+    let names = crate::evaluate::protocol_sequences(&ds, req.splits())?;
     let pairs = pairings(&names, Protocol::Paired);
     let (requests, _) = crate::evaluate::sample_requests(&ds, &pairs, &ck.config, req.seed_start)?;
     let g = ck.config.gpt_table();
@@ -150,7 +150,7 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
         }
     }
     pb.finish_and_clear();
-    let reference = crate::evaluate::reference_set(&ds, req.root)?;
+    let reference = crate::evaluate::reference_set(&ds, req.root, req.splits())?;
     let per_genre = per_genre_quality(&reference, &generated, req)?;
     let energy = genre_energy(&reference, &generated);
     let (classifier_confusion, scored) = crate::genre_clf::ground_truth_confusion(&clf, &ds)?;

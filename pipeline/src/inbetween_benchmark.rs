@@ -68,6 +68,26 @@ pub enum FidReference {
     All,
 }
 
+/// The rows of the strategies and in-betweeners asked for: every combination (the even strategy or the
+/// linear in-betweener where one list is empty), or Lin's rows ([`default_rows`]) when both are.
+pub fn rows_of(strategies: Vec<Strategy>, methods: Vec<IbMethod>) -> Vec<(Strategy, IbMethod)> {
+    if strategies.is_empty() && methods.is_empty() {
+        return default_rows();
+    }
+    let strategies = match strategies.is_empty() {
+        true => vec![Strategy::Even],
+        false => strategies,
+    };
+    let methods = match methods.is_empty() {
+        true => vec![IbMethod::Linear],
+        false => methods,
+    };
+    strategies
+        .iter()
+        .flat_map(|&s| methods.iter().map(move |&m| (s, m)))
+        .collect()
+}
+
 /// Lin's rows without the learnt in-betweeners: Exp. 1 (even × linear/Bézier, DP × Bézier fitted per
 /// sequence, plus DP × linear for Tables 4.1–4.3) and Exp. 2 (music keys × linear).
 pub fn default_rows() -> Vec<(Strategy, IbMethod)> {

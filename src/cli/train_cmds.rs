@@ -4,11 +4,11 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use anyhow::bail;
 use clap::Args;
 use qean_checkpoint::checkpoint;
 use qean_checkpoint::ProgressMode;
 use qean_config::run::string_override;
+use qean_pipeline::evaluate::SweepScoring;
 use qean_train::{sweep, TrainOptions};
 
 /// Train a model from a TOML run config (SPEC §5): FACT and QEAN (random 240-frame windows of the
@@ -190,6 +190,10 @@ pub struct SweepArgs {
     /// Generated frames per sequence when evaluating, instead of the sweep file's `eval_frames`.
     #[arg(long)]
     pub eval_frames: Option<usize>,
+    /// Score every evaluated run under a named protocol (bailando, edge, lodge: docs/protocols.md),
+    /// instead of the sweep file's `protocol_preset`; the summary and paper table name it.
+    #[arg(long, value_enum)]
+    pub protocol_preset: Option<qean_eval::preset::ProtocolPreset>,
     /// Print the planned runs and exit.
     #[arg(long)]
     pub dry_run: bool,
@@ -203,19 +207,11 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
     let seeds = (!a.seeds.is_empty()).then_some(a.seeds.as_slice());
     let (config, out_dir, mut runs) =
         sweep::plan_seeds(&a.config, a.out.as_deref(), &overrides, seeds)?;
-    if !a.only.is_empty() {
-        if let Some(unknown) = a
-            .only
-            .iter()
-            .find(|v| !config.variant.iter().any(|c| &c.name == *v))
-        {
-            bail!(
-                "{}: --only names variant `{unknown}`, which the sweep does not have",
-                a.config.display()
-            );
-        }
-        runs.retain(|r| a.only.contains(&r.variant));
-    }
+    sweep::keep_only(&mut runs, &config, &a.only, &a.config)?;
+    let protocol = match a.protocol_preset {
+        Some(p) => Some(p),
+        None => sweep::protocol_preset(&config, &a.config)?,
+    };
     println!("{} runs in {}:", runs.len(), out_dir.display());
     for r in &runs {
         println!("  {}  ({})", r.name, r.config.summary());
@@ -228,23 +224,19 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
         stop: stop_flag(),
         ..TrainOptions::new(&out_dir)
     };
-    let frames = a.eval_frames.or(config.eval_frames).unwrap_or(1200);
-    let evaluator = |run_dir: &Path| -> qean_io::error::Result<Vec<(String, f64)>> {
-        qean_pipeline::evaluate::checkpoint_metrics(run_dir, frames)
-            .map_err(|e| qean_io::error::Error::msg(format!("{e:#}")))
-    };
+    let scoring = SweepScoring::new(a.eval_frames.or(config.eval_frames), protocol);
+    let evaluator = |run_dir: &Path| scoring.metrics(run_dir);
     let evaluator = sweep::SweepEvaluator {
-        key: format!("checkpoint mode, reference metrics, {frames} frames"),
+        key: scoring.key(),
         eval: &evaluator,
     };
-    let any_evaluated = runs.iter().any(|r| r.evaluate);
-    let evaluator_ref = any_evaluated.then_some(&evaluator);
+    let evaluator_ref = runs.iter().any(|r| r.evaluate).then_some(&evaluator);
     let results = sweep::run(
         &out_dir,
         &runs,
         &options,
         evaluator_ref,
-        &sweep::SummaryLayout::of(&config),
+        &sweep::SummaryLayout::of(&config, protocol),
     )?;
     if results
         .iter()

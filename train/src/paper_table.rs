@@ -7,6 +7,8 @@
 use std::path::Path;
 
 use qean_config::sweep::PaperTable;
+use qean_eval::config::value_name;
+use qean_eval::preset::ProtocolPreset;
 use qean_eval::stats::Interval;
 use qean_io::error::Result;
 use qean_render::canvas::*;
@@ -131,6 +133,24 @@ pub struct Table {
     pub paired: Vec<Row>,
     /// The paper's numbers, for reference.
     pub published: Vec<Published>,
+    /// The named protocol every row was scored under (`None`: ours, Bailando's settings).
+    pub protocol: Option<ProtocolPreset>,
+}
+
+/// The line that says which protocol scored a sweep's numbers.
+pub fn protocol_line(protocol: Option<ProtocolPreset>) -> String {
+    match protocol {
+        Some(p) => format!(
+            "Protocol: preset `{}`, {}: every number here is scored under it (`qean eval --protocol-preset \
+             {}` lists each setting it fixes); published numbers are under their paper's own protocol.",
+            value_name(p),
+            p.title(),
+            value_name(p)
+        ),
+        None => "Protocol: ours (no preset named; Bailando's settings: 60 fps, the generated frames after \
+                 the seed, every non-ignored motion as the reference)."
+            .to_string(),
+    }
 }
 
 fn value(list: &[(String, Option<Interval>)], key: &str) -> Option<Interval> {
@@ -192,7 +212,7 @@ fn published(kind: PaperTable) -> Vec<Published> {
 
 /// Builds the table from a sweep's seed groups (groups without dance metrics, e.g. a VQ-VAE stage, are
 /// left out).
-pub fn build(kind: PaperTable, groups: &[SeedGroup]) -> Table {
+pub fn build(kind: PaperTable, groups: &[SeedGroup], protocol: Option<ProtocolPreset>) -> Table {
     let columns = match kind {
         PaperTable::Table1 => TABLE1,
         PaperTable::Table2 => TABLE2,
@@ -238,6 +258,7 @@ pub fn build(kind: PaperTable, groups: &[SeedGroup]) -> Table {
         ground_truth: ground,
         paired,
         published,
+        protocol,
     }
 }
 
@@ -272,7 +293,8 @@ pub fn markdown(t: &Table) -> String {
          number, not a result. Two rows whose intervals overlap are not shown apart by these seeds. \
          ↓ lower is better, ↑ higher, → closer to the ground truth's. \"random pairing\" scores each \
          dance against other songs' beats and \"frozen\" holds the seed's last pose: the chance levels \
-         of that row's own dances.\n\n"
+         of that row's own dances.\n\n{}\n\n",
+        protocol_line(t.protocol)
     );
     let head = |first: &str| seeds_table_head(first, t.columns.iter().map(|(_, c)| c.as_str()));
     let line = |r: &Row, kind: RowKind| {
@@ -484,8 +506,13 @@ fn published_markdown(t: &Table) -> String {
 }
 
 /// Writes `tableN.md`, `tableN.json` and the chart `tableN.png` into `out_dir` (atomically).
-pub fn write(out_dir: &Path, kind: PaperTable, groups: &[SeedGroup]) -> Result<()> {
-    let t = build(kind, groups);
+pub fn write(
+    out_dir: &Path,
+    kind: PaperTable,
+    groups: &[SeedGroup],
+    protocol: Option<ProtocolPreset>,
+) -> Result<()> {
+    let t = build(kind, groups, protocol);
     let json = serde_json::to_string_pretty(&t).expect("table serialises");
     qean_io::fsutil::atomic_write(
         &out_dir.join(format!("{}.png", kind.name())),
@@ -538,7 +565,7 @@ mod tests {
             group("qean", &[50.0, 52.0, 54.0], 9.1, Some("fact")),
             group("gpt", &[40.0, 41.0, 42.0], 8.7, None),
         ];
-        let t = build(PaperTable::Table1, &groups);
+        let t = build(PaperTable::Table1, &groups, None);
         let labels: Vec<&str> = t.rows.iter().map(|r| r.label.as_str()).collect();
         assert_eq!(
             labels,
@@ -573,7 +600,7 @@ mod tests {
         let png = chart(&t);
         assert!(png.width > 600 && png.height > 100);
         assert!(png.pixels.contains(&ORANGE), "the ground truth's line");
-        let t2 = build(PaperTable::Table2, &groups);
+        let t2 = build(PaperTable::Table2, &groups, None);
         assert_eq!(t2.columns[2].0, "beat_align");
         assert!(markdown(&t2).contains("| baseline + QRA | 46.33 | 26.2 | 0.236 |"));
     }

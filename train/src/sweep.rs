@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use qean_eval::preset::ProtocolPreset;
 use qean_eval::stats::{paired_difference, Interval};
 use qean_io::error::{Error, Result};
 
@@ -45,6 +46,42 @@ pub struct RunResult {
     pub metrics: Vec<(String, f64)>,
 }
 
+/// Keeps the runs of the variants in `only` (all when it is empty); a name the sweep file `file` does not
+/// have is an error.
+pub fn keep_only(
+    runs: &mut Vec<PlannedRun>,
+    config: &SweepConfig,
+    only: &[String],
+    file: &Path,
+) -> Result<()> {
+    if let Some(unknown) = only
+        .iter()
+        .find(|v| !config.variant.iter().any(|c| &c.name == *v))
+    {
+        return Err(Error::at(
+            file,
+            format!("--only names variant `{unknown}`, which the sweep does not have"),
+        ));
+    }
+    if !only.is_empty() {
+        runs.retain(|r| only.contains(&r.variant));
+    }
+    Ok(())
+}
+
+/// The sweep file's `protocol_preset` (`file` names it in the error): a name `qean eval --protocol-preset`
+/// takes, or an error listing them.
+pub fn protocol_preset(config: &SweepConfig, file: &Path) -> Result<Option<ProtocolPreset>> {
+    config
+        .protocol_preset
+        .as_deref()
+        .map(|name| {
+            name.parse::<ProtocolPreset>()
+                .map_err(|e| Error::at(file, format!("protocol_preset: {e}")))
+        })
+        .transpose()
+}
+
 /// Per-run evaluation hook: run directory → metrics (name, value).
 pub type Evaluator<'a> = dyn Fn(&Path) -> Result<Vec<(String, f64)>> + 'a;
 
@@ -55,14 +92,18 @@ pub struct SummaryLayout {
     pub baseline: Option<String>,
     /// Also a QEAN paper table (`table1.md`/`.json`, `table2.…`).
     pub table: Option<PaperTable>,
+    /// The named protocol the runs were scored under (`None`: our defaults, Bailando's settings).
+    #[serde(default)]
+    pub protocol: Option<ProtocolPreset>,
 }
 
 impl SummaryLayout {
-    /// The sweep file's choices.
-    pub fn of(config: &SweepConfig) -> Self {
+    /// The sweep file's choices, scored under `protocol` ([`protocol_preset`]).
+    pub fn of(config: &SweepConfig, protocol: Option<ProtocolPreset>) -> Self {
         SummaryLayout {
             baseline: config.baseline.clone(),
             table: config.table,
+            protocol,
         }
     }
 }
@@ -235,6 +276,7 @@ pub fn report(
     let layout = SummaryLayout {
         baseline: baseline.or(saved.baseline),
         table: table.or(saved.table),
+        protocol: saved.protocol,
     };
     let results = collect(out_dir)?;
     if let Some(b) = &layout.baseline {
@@ -312,31 +354,22 @@ fn fmt_opt(x: Option<f64>) -> String {
     x.map(|v| format!("{v:.4e}")).unwrap_or_else(|| "-".into())
 }
 
+/// Each distinct name once, in the order first seen.
+fn first_seen<'a>(names: impl Iterator<Item = &'a String>) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for n in names {
+        if !out.contains(n) {
+            out.push(n.clone());
+        }
+    }
+    out
+}
+
 /// Writes `summary.csv`, `summary.md` and `summary.json` (atomically): every run, then each variant over
 /// its seeds, and its paired differences against the layout's baseline; and the layout's paper table.
 pub fn write_summary(out_dir: &Path, results: &[RunResult], layout: &SummaryLayout) -> Result<()> {
-    let metric_names: Vec<String> = {
-        let mut names: Vec<String> = Vec::new();
-        for r in results {
-            for (n, _) in &r.metrics {
-                if !names.contains(n) {
-                    names.push(n.clone());
-                }
-            }
-        }
-        names
-    };
-    let grid_keys: Vec<String> = {
-        let mut keys: Vec<String> = Vec::new();
-        for r in results {
-            for (k, _) in &r.run.grid {
-                if !keys.contains(k) {
-                    keys.push(k.clone());
-                }
-            }
-        }
-        keys
-    };
+    let metric_names = first_seen(results.iter().flat_map(|r| r.metrics.iter().map(|m| &m.0)));
+    let grid_keys = first_seen(results.iter().flat_map(|r| r.run.grid.iter().map(|g| &g.0)));
     let mut csv = String::from("run,variant,seed");
     let mut md_head = String::from("| run | variant | seed");
     for k in &grid_keys {
@@ -352,7 +385,10 @@ pub fn write_summary(out_dir: &Path, results: &[RunResult], layout: &SummaryLayo
     csv.push('\n');
     md_head.push_str(" |\n");
     let columns = md_head.matches(" | ").count() + 1;
-    let mut md = String::from("# Sweep summary\n\n");
+    let mut md = format!(
+        "# Sweep summary\n\n{}\n\n",
+        crate::paper_table::protocol_line(layout.protocol)
+    );
     md.push_str(&md_head);
     md.push_str(&"|---".repeat(columns));
     md.push_str("|\n");
@@ -409,7 +445,7 @@ pub fn write_summary(out_dir: &Path, results: &[RunResult], layout: &SummaryLayo
     qean_io::fsutil::atomic_write(&out_dir.join("summary.md"), md.as_bytes())?;
     qean_io::fsutil::atomic_write(&out_dir.join("summary.json"), json.as_bytes())?;
     if let Some(kind) = layout.table {
-        crate::paper_table::write(out_dir, kind, &groups)?;
+        crate::paper_table::write(out_dir, kind, &groups, layout.protocol)?;
     }
     Ok(())
 }
