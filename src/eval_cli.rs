@@ -434,7 +434,9 @@ pub fn run_curves(a: &CurvesArgs) -> anyhow::Result<String> {
             .chain(a.eval_args.iter().filter(|x| !x.is_empty()).map(Into::into));
         let eval = Args::try_parse_from(argv).context("--eval-args")?;
         let mut template = eval.run_request(std::path::Path::new("R"))?;
-        template.max_frames = a.max_frames;
+        if eval.protocol_preset.is_empty() {
+            template.max_frames = a.max_frames; // a preset's dances are as long as it says
+        }
         template.tag = a.tag.clone();
         template.baselines = true;
         for d in qean_eval::curves::find_runs(&a.runs)? {

@@ -247,6 +247,24 @@ fn tiny_vq_gpt_trains_resumes_and_dances() {
         "short.wav",
     );
     assert!(!dir.path().join("short_out").join("short.pkl").exists());
+    // Text control needs a trained T-Base: this GPT took music steps only.
+    assert_clean_failure(
+        qean()
+            .args(["sample", "--frames", "240", "--run"])
+            .arg(&straight)
+            .arg("--music")
+            .arg(&song)
+            .args([
+                "--text-embedding",
+                "genre:KR",
+                "--text-interval",
+                "2.5..3.5",
+            ])
+            .arg("--out")
+            .arg(dir.path().join("text_out")),
+        "text control needs a GPT whose T-Base was trained",
+    );
+    assert!(!dir.path().join("text_out").exists());
 }
 
 fn string_set(key: &str, path: &Path) -> String {
@@ -569,4 +587,99 @@ fn text_steps_alternate_with_music_steps_and_leave_the_idle_base_alone() {
     let last = |r: &Path| checkpoints(r).last().unwrap().clone();
     assert_eq!(params_hash(&last(&straight)), params_hash(&last(&split)));
     assert_eq!(losses(&straight), losses(&split));
+
+    // Text control (SPEC §13.7): the T-Base's view of krump fused in over 2.5–3.5 s of the dance.
+    let song = shared().join("music/Kevin_MacLeod_-_Vibe_Ace.ogg");
+    let sample = |out: &Path, extra: &[&str]| {
+        let mut c = qean();
+        c.args(["sample", "--frames", "240", "--run"])
+            .arg(&straight)
+            .arg("--music")
+            .arg(&song)
+            .args(extra)
+            .arg("--out")
+            .arg(out);
+        c
+    };
+    let joints = |out: &Path| {
+        qean_io::npy::read(&out.join("Kevin_MacLeod_-_Vibe_Ace.joints.npy"))
+            .unwrap()
+            .data
+    };
+    let plain = dir.path().join("plain");
+    run_ok(&mut sample(&plain, &[]));
+    let texted = dir.path().join("texted");
+    let interval = [
+        "--text-embedding",
+        "genre:KR",
+        "--text-interval",
+        "2.5..3.5",
+    ];
+    run_ok(&mut sample(&texted, &interval));
+    let (a, b) = (joints(&plain), joints(&texted));
+    assert_eq!(a.len(), b.len());
+    // The seed stays; the tokens from the interval's first on (2.5 s = frame 150: token 18) change the dance.
+    let frame = 72;
+    assert_eq!(a[..120 * frame], b[..120 * frame]);
+    assert_ne!(a, b, "text control changed nothing");
+    let again = dir.path().join("texted_again");
+    run_ok(&mut sample(&again, &interval));
+    assert_eq!(joints(&again), b, "text control is deterministic");
+
+    // Bad inputs: one line each, nothing written.
+    let wrong = dir.path().join("wrong.npy");
+    std::fs::write(
+        &wrong,
+        qean_io::testdata::npy_bytes("<f4", "(7,)", &[0u8; 28]),
+    )
+    .unwrap();
+    let bad = dir.path().join("bad_text");
+    for (extra, message) in [
+        (
+            vec![
+                "--text-embedding",
+                wrong.to_str().unwrap(),
+                "--text-interval",
+                "2.5..3.5",
+            ],
+            "a text embedding of 7 values; this GPT's T-Base takes gpt.text_dim = 512",
+        ),
+        (
+            vec![
+                "--text-embedding",
+                "genre:KR",
+                "--text-interval",
+                "3.5..2.5",
+            ],
+            "the interval is empty or reversed",
+        ),
+        (
+            vec![
+                "--text-embedding",
+                "genre:KR",
+                "--text-interval",
+                "0.5..1.0",
+            ],
+            "starts inside the seed",
+        ),
+        (
+            vec!["--text-embedding", "genre:KR", "--text-interval", "2.5..30"],
+            "ends after the dance",
+        ),
+        (
+            vec![
+                "--text-embedding",
+                "genre:XX",
+                "--text-interval",
+                "2.5..3.5",
+            ],
+            "unknown genre `XX`",
+        ),
+    ] {
+        assert_clean_failure(&mut sample(&bad, &extra), message);
+        assert!(
+            !bad.join("Kevin_MacLeod_-_Vibe_Ace.pkl").exists(),
+            "{message}"
+        );
+    }
 }

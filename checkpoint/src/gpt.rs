@@ -76,6 +76,13 @@ pub fn music_tokens(features: &[f32], n: usize, rate: usize) -> Vec<f32> {
     features[..n * rate * FEATURES].to_vec()
 }
 
+/// A pseudo text embedding of a genre: a unit vector of `dim` seeded normal values (synthetic text data).
+pub fn genre_embedding(genre: usize, dim: usize) -> Vec<f32> {
+    let v = normal_noise(0x7465_7874 ^ genre as u64, dim);
+    let norm = v.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-12);
+    v.iter().map(|x| x / norm).collect()
+}
+
 /// `n` standard normal values from a seeded ChaCha stream (Box–Muller, row-major): the noise z.
 pub fn normal_noise(seed: u64, n: usize) -> Vec<f32> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);

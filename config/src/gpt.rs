@@ -15,6 +15,20 @@ pub enum MLayout {
     Sum,
 }
 
+/// How the music weight w falls inside a text interval (SPEC §13.7 `text.schedule` [DECISION]: the
+/// paper's Fig. 3 is unreadable).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TextSchedule {
+    /// w = 1 − t.
+    #[default]
+    Linear,
+    /// w = (1 + cos πt) / 2.
+    Cosine,
+    /// w = 0 over the whole interval.
+    Step,
+}
+
 /// The `[gpt]` table.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -72,6 +86,10 @@ pub struct GptConfig {
     /// SPEC §13.2.6 option: the training split is also tokenised from frame offsets 1..rate−1 (the music
     /// shifted alike), so the GPT sees `rate` different token sequences of each dance instead of one.
     pub token_shift_aug: bool,
+    /// Text control (SPEC §13.7): the music weight's schedule inside a text interval, and its ramp in tokens
+    /// on each side (4 = 0.53 s; 0 = `step`).
+    pub text_schedule: TextSchedule,
+    pub text_ramp: usize,
 }
 
 impl Default for GptConfig {
@@ -109,6 +127,8 @@ impl GptConfig {
             floor_window: 0,
             slide_window: 0,
             token_shift_aug: false,
+            text_schedule: TextSchedule::Linear,
+            text_ramp: 4,
         }
     }
 

@@ -429,8 +429,14 @@ pub fn eval_dir_name(step: u64, tag: Option<&str>) -> String {
 }
 
 /// Whether `run` holds a usable report for `step`: `eval/<eval_dir_name>/report.json` readable, made for
-/// `max_frames` generated frames, with motion energy.
-pub fn has_report(run: &Path, step: u64, tag: Option<&str>, max_frames: usize) -> bool {
+/// `max_frames` generated frames under `protocol` (a named preset or none), with motion energy.
+pub fn has_report(
+    run: &Path,
+    step: u64,
+    tag: Option<&str>,
+    max_frames: usize,
+    protocol: Option<crate::preset::ProtocolPreset>,
+) -> bool {
     let report = run
         .join("eval")
         .join(eval_dir_name(step, tag))
@@ -438,7 +444,11 @@ pub fn has_report(run: &Path, step: u64, tag: Option<&str>, max_frames: usize) -
     std::fs::read_to_string(report)
         .ok()
         .and_then(|t| serde_json::from_str::<RunReport>(&t).ok())
-        .is_some_and(|r| r.frames == max_frames && Point::of(&r).is_some())
+        .is_some_and(|r| {
+            r.frames == max_frames
+                && r.reports.first().map(|m| m.config.preset) == Some(protocol)
+                && Point::of(&r).is_some()
+        })
 }
 
 /// Reads the runs' reports and writes curves.png, curves.csv and table.md; returns the table.

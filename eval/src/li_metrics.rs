@@ -151,14 +151,9 @@ pub fn s_music_d_of(
     reference: &[Sequence],
     cfg: &EvalConfig,
 ) -> Result<Option<f64>> {
-    if crate::preset::needs_cut(cfg) && !rollouts.is_empty() {
-        // A protocol's clips: each rollout cut the same way, scored as they are.
-        let cuts = rollouts
-            .iter()
-            .map(|set| crate::preset::cut(set, reference, cfg))
-            .collect::<Result<Vec<_>>>()?;
-        let sets: Vec<&[Sequence]> = cuts.iter().map(|c| c.generated.as_slice()).collect();
-        return s_music_d_of(&sets, &cuts[0].reference, &cuts[0].cfg);
+    if crate::preset::needs_cut(cfg) {
+        // No protocol of clips defines it: the whole dances, as the rest of the TSMT paper's metrics.
+        return s_music_d_of(rollouts, reference, &crate::preset::whole_dances(cfg));
     }
     let ref_k: Vec<Vec<f64>> = reference
         .par_iter()

@@ -16,6 +16,7 @@ use crate::config::{BaSegment, EvalConfig, PositionMode};
 use crate::error::{Error, Result};
 use crate::pfc::PfcVariant;
 use crate::positions::{Frame, Sequence};
+use crate::report::Exclusion;
 
 /// A named protocol of the field.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ValueEnum)]
@@ -208,7 +209,7 @@ impl ProtocolPreset {
                 setting("kinetic frame time", "1/60 s", Code),
                 setting("reference set", "every non-ignored motion, whole length", Code),
                 setting("generated set", "test + val sequences", Code),
-                setting("BeatAlign", "σ = 3 frames at 60 fps, averaged over music beats, the generated frames", Code),
+                setting("BeatAlign", "σ = 3 frames at 60 fps, averaged over music beats, on the 1,200 scored frames (Bailando's runs on the whole generated dance, its seed included)", Deviation),
                 setting("main table", "FID_k, FID_g, Dist_k, Dist_g, BeatAlign", Code),
             ],
             ProtocolPreset::Edge => vec![
@@ -216,25 +217,25 @@ impl ProtocolPreset {
                 setting("evaluated clips", "5 s (150 frames) every 2.5 s (75 frames) of each dance", Inferred),
                 setting("seed", "left out (EDGE generates from noise, no seed)", Code),
                 setting("positions", "frame-0 root of each clip subtracted (EDGE's FID/Dist code is not public)", Inferred),
-                setting("up axis", "y (EDGE rotates AIST++ to z up; every metric here reads the data's vertical, so the numbers are the same)", Code),
+                setting("up axis", "y (EDGE rotates AIST++ to z up; every metric here reads the data's vertical axis, so the rotation should not change a number: our reading, not EDGE's code)", Inferred),
                 setting("joints", "SMPL 24", Code),
                 setting("kinetic frame time", "1/30 s (not public; the clip's own rate)", Inferred),
-                setting("reference set", "the test motions, cut into the same clips (EDGE's reference set is not public)", Inferred),
+                setting("reference set", "the test motions, cut into the same 5-s clips every 2.5 s (EDGE's reference set is not public; its training slices step 0.5 s)", Inferred),
                 setting("generated set", "test sequences (crossmodal_test, 20 on AIST++)", Code),
-                setting("PFC", "30 fps, every clip, root acceleration normalised by its maximum per clip, ×10⁴", Code),
+                setting("PFC", "EDGE's formula at 30 fps, ×10⁴, on each 5-s clip with the root's acceleration normalised by the clip's maximum (EDGE's script scores whole stitched dances; its paper, 5-s clips)", Inferred),
                 setting("BeatAlign", "σ = 3 frames at 30 fps; music beats at 60 fps mapped to 30 fps (EDGE's beat code is not public)", Inferred),
                 setting("main table", "PFC, BeatAlign, Dist_k, Dist_g (FID shown, not in EDGE's table)", Code),
             ],
             ProtocolPreset::Lodge => vec![
-                setting("frame rate", "30 fps (FineDance's own; AIST++ motion: every second frame)", Code),
+                setting("frame rate", "30 fps, FineDance's own; AIST++ motion: every second frame (our transfer of the FineDance protocol: Lodge's published AIST++ numbers follow Bailando's, compare those under `bailando`)", Inferred),
                 setting("evaluated clip", "the first 1,024 frames (34 s at 30 fps) of each dance", Code),
-                setting("seed", "left out (Lodge uses none)", Code),
+                setting("seed", "left out (no seed motion found in Lodge's inference)", Inferred),
                 setting("positions", "frame-0 root subtracted, then joints 1… relative to the root of each frame", Code),
                 setting("joints", "22 body joints for FID and Dist (66-D kinetic features); BeatAlign on all 24", Code),
                 setting("kinetic frame time", "1/60 s on 30-fps motion (as Lodge's code has it)", Code),
                 setting("reference set", "every non-ignored motion, its first 1,024 frames at 30 fps", Code),
                 setting("generated set", "test + val sequences (Lodge's AIST++ runs follow Bailando)", Inferred),
-                setting("BeatAlign", "σ = 3 frames at 30 fps; our music beats (HPSS-percussive, 60 fps) mapped to 30 fps, where Lodge tracks beats on the raw onset envelope at 30 fps with tightness 100", Deviation),
+                setting("BeatAlign", "σ = 3 frames at 30 fps on the 1,024-frame clip (Lodge's runs on the whole dance); our music beats (HPSS-percussive, 60 fps) mapped to 30 fps, where Lodge tracks beats on the raw onset envelope at 30 fps with tightness 100", Deviation),
                 setting("main table", "FID_k, FID_g, Dist_k, Dist_g, BeatAlign (Lodge's foot-skating ratio is not computed here)", Deviation),
             ],
         }
@@ -247,12 +248,49 @@ pub fn needs_cut(cfg: &EvalConfig) -> bool {
 }
 
 /// The clips a protocol scores, with the configuration that scores them as they are (no seed, the
-/// clip's frame rate and length) and the frame stride that maps 60-fps music beats onto them.
+/// clip's frame rate and length), the frame stride that maps 60-fps music beats onto them, and the
+/// motions too short for any clip.
 pub struct Cut {
     pub generated: Vec<Sequence>,
     pub reference: Vec<Sequence>,
     pub cfg: EvalConfig,
     pub stride: usize,
+    pub dropped: Vec<Exclusion>,
+}
+
+/// Our settings for what no protocol defines (motion energy, the TSMT paper's metrics): every frame
+/// after the seed at the data's rate, 24 joints, zero start, no preset.
+pub fn whole_dances(cfg: &EvalConfig) -> EvalConfig {
+    EvalConfig {
+        preset: None,
+        frame_stride: 1,
+        slices: None,
+        reference_cut: ReferenceCut::Whole,
+        joints: JointSet::Smpl24,
+        positions: PositionMode::ZeroStart,
+        kinetic_fps: 60.0,
+        pfc: PfcVariant::Ours,
+        max_frames: usize::MAX,
+        ..cfg.clone()
+    }
+}
+
+/// A motion that gave no clip, for the report's exclusions.
+fn dropped(set: &str, s: &Sequence, frames: usize, cfg: &EvalConfig) -> Exclusion {
+    let reason = match cfg.slices {
+        Some(sl) => format!(
+            "{frames} frame(s) at the protocol's rate: shorter than one {}-frame clip",
+            sl.length
+        ),
+        None => format!("{frames} frame(s) at the protocol's rate: no clip"),
+    };
+    tracing::warn!(sequence = %s.name, "no clip under the protocol: {reason}");
+    Exclusion {
+        set: set.into(),
+        name: s.name.clone(),
+        from: "all".into(),
+        reason,
+    }
 }
 
 /// Every `stride`-th frame of `frames`.
@@ -302,42 +340,38 @@ pub fn cut(generated: &[Sequence], reference: &[Sequence], cfg: &EvalConfig) -> 
         }
     }
     let sliced = cfg.slices.is_some();
-    let mut gen = Vec::new();
+    // A 60-fps music frame on the clip's grid: the nearest, as the beats ([`beats_at_stride`]).
+    let on_grid = |f: usize| (f + stride / 2) / stride;
+    let (mut gen, mut refs, mut gone) = (Vec::new(), Vec::new(), Vec::new());
     for s in generated {
         let from = cfg.seed_frames.min(s.joints.len());
         let dance = decimate(&s.joints[from..], stride);
         // The music frame (60 fps) of the dance's first frame.
         let music0 = cfg.music_offset + s.music_offset + from;
-        for (i, (start, frames)) in clips(&dance, cfg.slices, cfg.max_frames)
-            .into_iter()
-            .enumerate()
-        {
-            gen.push(clip_of(
-                s,
-                i,
-                sliced,
-                frames,
-                (music0 + start * stride) / stride,
-            ));
+        let pieces = clips(&dance, cfg.slices, cfg.max_frames);
+        if pieces.is_empty() {
+            gone.push(dropped("generated", s, dance.len(), cfg));
+        }
+        for (i, (start, frames)) in pieces.into_iter().enumerate() {
+            let music = on_grid(music0 + start * stride);
+            gen.push(clip_of(s, i, sliced, frames, music));
         }
     }
-    let mut refs = Vec::new();
     for s in reference {
         let whole = decimate(&s.joints, stride);
+        let n = whole.len();
         let pieces = match cfg.reference_cut {
             ReferenceCut::Whole => vec![(0, whole)],
             ReferenceCut::First => clips(&whole, None, cfg.max_frames),
             ReferenceCut::Slices => clips(&whole, cfg.slices, cfg.max_frames),
         };
+        if pieces.is_empty() {
+            gone.push(dropped("reference", s, n, cfg));
+        }
         let named = cfg.reference_cut == ReferenceCut::Slices;
         for (i, (start, frames)) in pieces.into_iter().enumerate() {
-            refs.push(clip_of(
-                s,
-                i,
-                named,
-                frames,
-                s.music_offset / stride + start,
-            ));
+            let music = on_grid(s.music_offset + start * stride);
+            refs.push(clip_of(s, i, named, frames, music));
         }
     }
     let max_frames = cfg.slices.map_or(cfg.max_frames, |s| s.length);
@@ -356,6 +390,7 @@ pub fn cut(generated: &[Sequence], reference: &[Sequence], cfg: &EvalConfig) -> 
             ..cfg.clone()
         },
         stride,
+        dropped: gone,
     })
 }
 
@@ -467,6 +502,22 @@ mod tests {
             assert!(p.columns().contains(&"BeatAlign"));
         }
         assert!(ProtocolPreset::Edge.columns().contains(&"PFC"));
+    }
+
+    /// A dance whose music starts on an odd 60-fps frame: its clip's offset is rounded as the beats are,
+    /// so a beat 4 frames into the dance lands 2 frames into the clip.
+    #[test]
+    fn odd_music_starts_keep_the_beats_on_their_frames() {
+        let cfg = ProtocolPreset::Edge.apply(EvalConfig {
+            seed_frames: 0,
+            music_offset: 121,
+            ..EvalConfig::default()
+        });
+        let c = cut(&[seq("g", 500)], &[seq("r", 400)], &cfg).unwrap();
+        let beat = beats_at_stride(&[125], 2)[0];
+        assert_eq!(beat - c.generated[0].music_offset, 2);
+        let beat = beats_at_stride(&[121 + 150 + 6], 2)[0];
+        assert_eq!(beat - c.generated[1].music_offset, 3);
     }
 
     #[test]

@@ -218,7 +218,8 @@ pub fn fid_within(
     cfg: &EvalConfig,
 ) -> Result<(f64, f64)> {
     if crate::preset::needs_cut(cfg) {
-        let c = crate::preset::cut(generated, reference, cfg)?;
+        let (held, _) = hold_exploded(generated, cfg.seed_frames);
+        let c = crate::preset::cut(&held, reference, cfg)?;
         let all = crate::preset::cut(&[], normalise_by, cfg)?;
         return fid_within(&c.generated, &c.reference, &all.reference, &c.cfg);
     }
@@ -613,15 +614,25 @@ pub fn evaluate(
     Ok(report)
 }
 
-/// [`evaluate`] under a protocol that scores clips ([`crate::preset::cut`]): the clips scored as they
-/// are, music beats on their grid; the report keeps the protocol's own configuration.
+/// [`evaluate`] under a protocol that scores clips ([`crate::preset::cut`]): the clips of the dances
+/// (exploded tails held first) scored as they are, music beats on their grid; the report keeps the
+/// protocol's own configuration. What no protocol defines (motion energy, drift, foot contact, the dancing
+/// limits, the TSMT paper's metrics) and the explosions' records describe the whole dances at 60 fps
+/// ([`crate::preset::whole_dances`]).
 fn evaluate_clips(
     generated: &[Sequence],
     reference: &[Sequence],
     music_beats: Option<BeatLookup>,
     cfg: &EvalConfig,
 ) -> Result<MetricsReport> {
-    let cut = crate::preset::cut(generated, reference, cfg)?;
+    let whole = evaluate(
+        generated,
+        reference,
+        music_beats,
+        &crate::preset::whole_dances(cfg),
+    )?;
+    let (held, _) = hold_exploded(generated, cfg.seed_frames);
+    let cut = crate::preset::cut(&held, reference, cfg)?;
     let stride = cut.stride;
     let on_grid = |id: &str| -> Result<Vec<usize>> {
         match music_beats {
@@ -633,29 +644,20 @@ fn evaluate_clips(
     let mut report = evaluate(&cut.generated, &cut.reference, lookup, &cut.cfg)?;
     report.config = cfg.clone();
     report.label = cfg.label();
-    // Motion energy, drift, foot contact and the dancing limits are no protocol's: they describe the
-    // dances at their own 60 fps, every frame after the seed against the whole reference motions (the
-    // clips' PFC stays, it is the protocol's).
-    let whole = EvalConfig {
-        frame_stride: 1,
-        slices: None,
-        reference_cut: crate::preset::ReferenceCut::Whole,
-        max_frames: usize::MAX,
-        ..cfg.clone()
-    };
-    let (held, _) = hold_exploded(generated, cfg.seed_frames);
-    let (gen, refs, _) = usable(&held, reference, &whole)?;
-    let (_, set_energy, energy_reference, ground) = energy_and_ground(&gen, &refs, &whole);
-    report.motion_energy = Some(set_energy);
-    report.energy_reference = Some(energy_reference);
-    report.root_drift = Some(ground.root_drift);
-    report.reference_root_drift = Some(ground.reference_root_drift);
-    report.foot_contact = Some(ground.foot_contact);
-    report.reference_foot_contact = Some(ground.reference_foot_contact);
-    report.dancing = Some(ground.dancing);
-    report.reference_dancing = Some(ground.reference_dancing);
+    report.excluded.extend(cut.dropped);
+    report.exploded = whole.exploded;
+    report.li = whole.li;
+    report.motion_energy = whole.motion_energy;
+    report.energy_reference = whole.energy_reference;
+    report.root_drift = whole.root_drift;
+    report.reference_root_drift = whole.reference_root_drift;
+    report.foot_contact = whole.foot_contact;
+    report.reference_foot_contact = whole.reference_foot_contact;
+    report.dancing = whole.dancing;
+    report.reference_dancing = whole.reference_dancing;
     for s in &mut report.sequences {
         s.motion_energy = None; // a clip's own would be at the clip's rate
     }
+    report.check_finite()?;
     Ok(report)
 }

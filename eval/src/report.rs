@@ -312,11 +312,15 @@ fn protocol_block(p: ProtocolPreset, rows: &[(&str, &MetricsReport)]) -> String 
             }
         ));
     }
+    let ours = match p {
+        ProtocolPreset::Bailando => "the 1,200 scored frames after the seed",
+        _ => "every frame after the seed, at 60 fps",
+    };
     out.push_str(&format!(
         "\nDirectory mode scores the directories it is given as the generated and reference sets; \
          checkpoint mode picks them as listed. Every metric under protocol `{}` (speed, acceleration, \
-         frozen share, drift, foot contact and the dancing limits are not the protocol's: they describe \
-         whole dances at 60 fps):\n\n",
+         frozen share, drift, foot contact, the dancing limits and the TSMT paper's metrics are no \
+         protocol's: they describe {ours}):\n\n",
         value_name(p)
     ));
     out

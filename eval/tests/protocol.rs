@@ -342,3 +342,49 @@ fn ground_truth_scored_as_dances_matches_its_own_row_under_edge_clips() {
     let rep = evaluate(&still, &reference, Some(&beats), &cfg).unwrap();
     assert_eq!(rep.pfc, Some(0.0));
 }
+
+/// Under EDGE's clips, a dance that explodes is held before it is cut: every slice after the explosion
+/// sees the held pose, the record names the whole dance's frame, and every number stays finite; a NaN in
+/// a frame the clips skip is still bad input; a dance too short for a clip is listed, not lost.
+#[test]
+fn clip_protocols_hold_explosions_before_cutting_and_list_short_dances() {
+    use qean_eval::preset::ProtocolPreset;
+    let (mut g, r) = sets(3, 6, 20 + 700);
+    let cfg = ProtocolPreset::Edge.apply(cfg());
+    let at = cfg.seed_frames + 400;
+    for (t, frame) in g[1].joints.iter_mut().enumerate().skip(at) {
+        for p in frame.iter_mut().skip(1) {
+            p[0] += 1e8 * (t - at + 1) as f64;
+        }
+    }
+    let reference: Vec<Sequence> = r
+        .iter()
+        .map(|s| seq(&s.name, synthetic_motion(3 + s.name.len() as u64, 700)))
+        .collect();
+    let rep = evaluate(&g, &reference, None, &cfg).unwrap();
+    assert_eq!(rep.exploded.len(), 1);
+    assert_eq!(rep.exploded[0].frame, at);
+    // Scored exactly as the same dance stopped by hand at its last plausible frame.
+    let mut stopped = g.clone();
+    let last = stopped[1].joints[at - 1];
+    stopped[1].joints[at..].fill(last);
+    let by_hand = evaluate(&stopped, &reference, None, &cfg).unwrap();
+    assert!(by_hand.exploded.is_empty());
+    assert_eq!((rep.fid_k, rep.div_k), (by_hand.fid_k, by_hand.div_k));
+    assert!(rep.fid_k.is_finite() && rep.div_k.is_finite());
+
+    let mut odd = g.clone();
+    odd[0].joints[cfg.seed_frames + 3][4][1] = f64::NAN; // an odd frame: not in any 30-fps clip
+    assert!(evaluate(&odd, &reference, None, &cfg).is_err());
+
+    let mut short = g.clone();
+    short[2].joints.truncate(cfg.seed_frames + 200); // 100 frames at 30 fps: no 150-frame clip
+    let rep = evaluate(&short, &reference, None, &cfg).unwrap();
+    assert!(
+        rep.excluded.iter().any(
+            |e| e.name == short[2].name && e.reason.contains("shorter than one 150-frame clip")
+        ),
+        "{:?}",
+        rep.excluded
+    );
+}

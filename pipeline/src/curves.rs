@@ -13,7 +13,14 @@ pub fn evaluate_missing(run: &Path, steps: &[u64], template: &RunEvalRequest) ->
         if !steps.is_empty() && !steps.contains(&step) {
             continue;
         }
-        if has_report(run, step, template.tag.as_deref(), template.max_frames) {
+        let protocol = template.configs.first().and_then(|c| c.preset);
+        if has_report(
+            run,
+            step,
+            template.tag.as_deref(),
+            template.max_frames,
+            protocol,
+        ) {
             continue;
         }
         eprintln!("curves: evaluating {} step {step}", run.display());

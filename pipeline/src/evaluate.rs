@@ -106,13 +106,13 @@ pub struct RunEvalRequest {
 }
 
 impl RunEvalRequest {
-    /// The request with the defaults of `qean eval --run`: paired protocol, 1200 frames, the run's
-    /// sampling recipe, both metrics modes, Bailando's music beats, SMPL root, no baselines.
     /// The splits the configurations' protocol scores (the first configuration's; presets agree).
     pub fn splits(&self) -> Splits {
         self.configs.first().map(|c| c.splits).unwrap_or_default()
     }
 
+    /// The request with the defaults of `qean eval --run`: paired protocol, 1200 frames, the run's
+    /// sampling recipe, both metrics modes, Bailando's music beats, SMPL root, no baselines.
     pub fn new(run: impl Into<PathBuf>, data: impl Into<PathBuf>) -> Self {
         RunEvalRequest {
             run: run.into(),
@@ -328,7 +328,8 @@ pub fn checkpoint_metrics(
 }
 
 /// How a sweep scores its runs: [`checkpoint_metrics`] of `frames` generated frames per sequence (the
-/// preset's own length when none is given, else 1,200) under `protocol`.
+/// preset's own length when none is given, else 1,200) under `protocol`. (`qean sweep` passes the sweep
+/// file's `eval_frames` only without a preset; its `--eval-frames` always.)
 pub struct SweepScoring {
     pub frames: usize,
     pub protocol: Option<ProtocolPreset>,
@@ -610,7 +611,7 @@ fn sample_gpt(
                 music,
                 req.max_frames,
                 &picking,
-                choice,
+                (choice, None),
                 &mut |_, _| {},
             )?
             .ok_or_else(|| {

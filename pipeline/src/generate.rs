@@ -130,6 +130,50 @@ pub struct GenerateOptions {
     pub sample_seed: u64,
     /// Genre control (genre-control GPT runs): the genre and the seed of z.
     pub genre: Option<crate::gpt::GenreChoice>,
+    /// Text control (GPT runs whose T-Base was trained).
+    pub text: Option<crate::gpt::TextRequest>,
+}
+
+impl GenerateOptions {
+    /// Warns about options this run ignores; an option out of range, or text control asked of a run that
+    /// is not a GPT, is an error.
+    pub fn check(&self, ck: &Checkpoint) -> Result<()> {
+        let spec = ck.config.spec();
+        let token_model = matches!(spec, ModelSpec::Gpt(_) | ModelSpec::GptGenre(..));
+        let draws = token_model || matches!(spec, ModelSpec::Tsmt(_));
+        if !draws && (self.temperature.is_some() || self.top_k.is_some() || self.sample_seed != 0) {
+            tracing::warn!(
+                "--temperature, --top-k and --sample-seed are for TSMT and GPT runs; this {:?} run is deterministic and ignores them",
+                ck.config.model.arch
+            );
+        }
+        if !token_model && (self.floor_window.is_some() || self.slide_window.is_some()) {
+            tracing::warn!(
+                "--floor-window and --slide-window are for GPT runs (a root integrated from decoded velocities); this {:?} run ignores them",
+                ck.config.model.arch
+            );
+        }
+        if let Some(t) = self.temperature.filter(|t| !(t.is_finite() && *t >= 0.0)) {
+            return Err(Error::msg(format!("--temperature must be ≥ 0, got {t}")));
+        }
+        if let Some(r) = self
+            .repetition_penalty
+            .filter(|r| !(r.is_finite() && *r >= 1.0))
+        {
+            return Err(Error::msg(format!(
+                "--repetition-penalty must be ≥ 1 (1 = off), got {r}"
+            )));
+        }
+        match &self.text {
+            Some(_) if !token_model => Err(Error::msg(format!(
+                "--text-embedding needs a GPT run with a trained T-Base (configs/control/gpt_tiny.toml with gpt.synthetic_text or gpt.text_dir); {} is a {:?} run",
+                ck.dir.display(),
+                ck.config.model.arch
+            ))),
+            Some(t) => t.check(ck.config.gpt_table(), ck.config.seed_frames()),
+            None => Ok(()),
+        }
+    }
 }
 
 /// What was written for one song.

@@ -126,7 +126,7 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
                     audio,
                     req.max_frames,
                     &picking,
-                    Some(choice),
+                    (Some(choice), None),
                     &mut |_, _| {},
                 )?
                 .ok_or_else(|| {
@@ -186,11 +186,16 @@ fn per_genre_quality(
     generated: &[Vec<Sequence>],
     req: &RunEvalRequest,
 ) -> Result<Vec<GenreQuality>> {
+    let base = req.configs.first().cloned().unwrap_or_default();
     let cfg = EvalConfig {
         seed_frames: 0,
         music_offset: 0,
-        max_frames: req.max_frames,
-        ..req.configs.first().cloned().unwrap_or_default()
+        // A protocol preset fixes its own clip length; the request's is how long the dances are.
+        max_frames: match base.preset {
+            Some(_) => base.max_frames,
+            None => req.max_frames,
+        },
+        ..base
     };
     let mut out = Vec::new();
     for (genre, dances) in generated.iter().enumerate() {

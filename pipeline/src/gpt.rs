@@ -157,12 +157,179 @@ impl GenreChoice {
     }
 }
 
+/// A text control as asked for (SPEC §13.7): an embedding (a `.npy` of `gpt.text_dim` values, e.g. a CLIP
+/// text embedding, or `genre:XX`, the synthetic text set's pseudo-embedding of genre XX) over an interval
+/// of the output dance in seconds, seed included.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TextRequest {
+    pub embedding: String,
+    pub from_s: f64,
+    pub to_s: f64,
+}
+
+/// A text control on the token grid: the embedding and the tokens [start, end) it covers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TextControl {
+    pub embedding: Vec<f32>,
+    pub start: usize,
+    pub end: usize,
+}
+
+impl TextRequest {
+    /// `--text-embedding E` over `--text-interval A..B`, if both are given.
+    pub fn of(embedding: Option<&str>, interval: Option<&str>) -> Result<Option<TextRequest>> {
+        let (Some(embedding), Some(interval)) = (embedding, interval) else {
+            return Ok(None);
+        };
+        let (from_s, to_s) =
+            Self::interval(interval).map_err(|e| Error::msg(format!("--text-interval {e}")))?;
+        Ok(Some(TextRequest {
+            embedding: embedding.to_string(),
+            from_s,
+            to_s,
+        }))
+    }
+
+    /// `A..B` in seconds, A < B.
+    pub fn interval(text: &str) -> std::result::Result<(f64, f64), String> {
+        let (a, b) = text
+            .split_once("..")
+            .ok_or_else(|| format!("`{text}`: expected START..END in seconds, e.g. 4.0..6.5"))?;
+        let parse = |x: &str| {
+            x.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && *v >= 0.0)
+                .ok_or_else(|| format!("`{text}`: `{x}` is not a time in seconds"))
+        };
+        let (a, b) = (parse(a)?, parse(b)?);
+        if a >= b {
+            return Err(format!("`{text}`: the interval is empty or reversed"));
+        }
+        Ok((a, b))
+    }
+
+    /// The embedding's values, `dim` of them.
+    fn embedding(&self, dim: usize) -> Result<Vec<f32>> {
+        if let Some(code) = self.embedding.strip_prefix("genre:") {
+            let genre = GenreChoice::parse(code, 0)?.genre;
+            return Ok(qean_checkpoint::gpt::genre_embedding(genre, dim));
+        }
+        let path = Path::new(&self.embedding);
+        let a = qean_io::npy::read(path)?;
+        if a.data.len() != dim {
+            return Err(Error::at(
+                path,
+                format!(
+                    "a text embedding of {} values; this GPT's T-Base takes gpt.text_dim = {dim}",
+                    a.data.len()
+                ),
+            ));
+        }
+        Ok(a.data.iter().map(|&v| v as f32).collect())
+    }
+
+    /// What can be checked before any music is read: a GPT whose T-Base was trained, an embedding of its
+    /// width, an interval after the seed of `seed_frames`.
+    pub fn check(&self, g: &GptConfig, seed_frames: usize) -> Result<()> {
+        self.control(g, seed_frames / g.rate, usize::MAX)
+            .map(|_| ())
+    }
+
+    /// On the token grid of a dance of `seed_tokens` seed and `n_total` tokens in all; an interval that
+    /// starts inside the seed or ends after the dance is an error, and so is a GPT whose T-Base was never
+    /// trained.
+    pub fn control(
+        &self,
+        g: &GptConfig,
+        seed_tokens: usize,
+        n_total: usize,
+    ) -> Result<TextControl> {
+        if g.text_dir.is_none() && !g.synthetic_text {
+            return Err(Error::msg(
+                "text control needs a GPT whose T-Base was trained (gpt.text_dir or gpt.synthetic_text); this run took music steps only",
+            ));
+        }
+        let frame = |s: f64| (s * 60.0).round() as usize;
+        let (start, end) = qean_models::control::fusion::interval_tokens(
+            frame(self.from_s),
+            frame(self.to_s),
+            g.rate,
+        );
+        let seconds = |tokens: usize| (tokens * g.rate) as f64 / 60.0;
+        if start < seed_tokens {
+            return Err(Error::msg(format!(
+                "--text-interval {}..{} starts inside the seed (its first {:.2} s)",
+                self.from_s,
+                self.to_s,
+                seconds(seed_tokens)
+            )));
+        }
+        if end > n_total {
+            return Err(Error::msg(format!(
+                "--text-interval {}..{} ends after the dance ({:.2} s: the music or --frames ends there)",
+                self.from_s,
+                self.to_s,
+                seconds(n_total)
+            )));
+        }
+        Ok(TextControl {
+            embedding: self.embedding(g.text_dim)?,
+            start,
+            end,
+        })
+    }
+}
+
+/// The head's input for the window [s, i] under text control `t` (eq. 2): h^M where the music weight is 1,
+/// else F = h^T (1 − w) + h^M w, h^T from one causal T-Base pass over [e_text, c_a, …, c_{last−1}]
+/// (last = min(i, end − 1); the context starts at the interval's start and slides to stay within the
+/// window, e_text kept first).
+fn text_window(
+    model: &Gpt,
+    g: &GptConfig,
+    t: &TextControl,
+    tokens: &[usize],
+    (s, i): (usize, usize),
+    h_m: Tensor<3>,
+) -> Tensor<3> {
+    use qean_models::control::fusion::{fuse, fusion_weights};
+    let w = fusion_weights(i + 1, t.start, t.end, g.text_ramp, g.text_schedule);
+    let w = &w[s..=i];
+    if w.iter().all(|&x| x == 1.0) {
+        return h_m;
+    }
+    let device = h_m.device();
+    let d = h_m.dims()[2];
+    let last = i.min(t.end - 1);
+    let a = t.start.max((last + 1).saturating_sub(g.window));
+    let text = Tensor::<1>::from_data(
+        TensorData::new(t.embedding.clone(), [t.embedding.len()]),
+        &device,
+    )
+    .unsqueeze::<2>();
+    let h_t = model.t_base.forward_context(text, &tokens[a..last]);
+    // h^T_j for j in [a, last] ∩ [s, i]; zeros where w_j = 1.
+    let (lo, hi) = (a.max(s), last.min(i));
+    let mut parts = Vec::new();
+    if lo > s {
+        parts.push(Tensor::zeros([1, lo - s, d], &device));
+    }
+    parts.push(h_t.narrow(1, lo - a, hi - lo + 1));
+    if hi < i {
+        parts.push(Tensor::zeros([1, i - hi, d], &device));
+    }
+    fuse(Tensor::cat(parts, 1), h_m, w)
+}
+
 /// Tokens n_total = min(seed + wanted, music tokens) from `seed` tokens and music tokens (n_total × 280);
-/// with `genre`, the genre module steers every M-Base block with the tokens G.
+/// with `genre`, the genre module steers every M-Base block with the tokens G; with `text`, the head reads
+/// the fusion of both bases inside its interval.
 #[allow(clippy::too_many_arguments)]
 pub fn sample_tokens(
     model: &Gpt,
     genre: Option<(&GenreModule, Tensor<3>)>,
+    text: Option<&TextControl>,
     g: &GptConfig,
     seed: &[usize],
     music: &[f32],
@@ -194,10 +361,19 @@ pub fn sample_tokens(
             .collect();
         let inputs = Tensor::<2, Int>::from_data(TensorData::new(inputs, [1, len]), &device);
         let rows = Tensor::from_data(TensorData::new(rows, [1, len, w]), &device);
-        let logits = match &genre {
-            Some((module, tokens)) => model.genre_logits(inputs, rows, module, tokens.clone()),
-            None => model.music_logits(inputs, rows),
+        let h_m = match &genre {
+            Some((module, g_tokens)) => {
+                model
+                    .m_base
+                    .forward_genre(inputs, rows, Some((module, g_tokens.clone())))
+            }
+            None => model.m_base.forward(inputs, rows),
         };
+        let h = match text {
+            Some(t) => text_window(model, g, t, &tokens, (s, i), h_m),
+            None => h_m,
+        };
+        let logits = model.head.forward(h);
         let last: Vec<f32> = logits
             .narrow(1, len - 1, 1)
             .into_data()
@@ -330,7 +506,7 @@ impl GptRun {
         music: (&[f32], usize),
         frames: usize,
         picking: &Picking,
-        genre: Option<GenreChoice>,
+        (genre, text): (Option<GenreChoice>, Option<&TextRequest>),
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<Option<Motion>> {
         let genre = self.genre_tokens(genre)?;
@@ -340,9 +516,13 @@ impl GptRun {
         if n_total <= seed_tokens.len() {
             return Ok(None);
         }
+        let text = text
+            .map(|t| t.control(g, seed_tokens.len(), n_total))
+            .transpose()?;
         let tokens = sample_tokens(
             &self.model,
             genre,
+            text.as_ref(),
             g,
             &seed_tokens,
             &music_tokens(music.0, n_total, g.rate),
@@ -392,8 +572,15 @@ pub fn generate(
             .recipe
             .model_audio(song.features.data.clone(), qean_aistpp::windows::AUDIO_DIM);
         let music = (features.as_slice(), song.features.frames);
-        let Some(motion) =
-            run.dance(g, seed, music, opts.frames, &picking, opts.genre, progress)?
+        let Some(motion) = run.dance(
+            g,
+            seed,
+            music,
+            opts.frames,
+            &picking,
+            (opts.genre, opts.text.as_ref()),
+            progress,
+        )?
         else {
             return Err(Error::at(
                 &song.path,

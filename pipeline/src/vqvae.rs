@@ -108,7 +108,7 @@ pub fn evaluate_vq(req: &RunEvalRequest) -> Result<(VqEvaluation, String)> {
     let vq = TrainedVq::load(&req.run, req.checkpoint.as_deref())?;
     let ck = &vq.checkpoint;
     let ds = Dataset::open(&req.data)?;
-    let names = crate::evaluate::protocol_sequences(&ds, req.splits())?;
+    let names = crate::evaluate::protocol_sequences(&ds, Default::default())?;
     let codes = vq.model.codes().0;
     let mut counts = vec![0f32; codes];
     let (mut decoded, mut total, mut worst, mut frames) = (Vec::new(), 0.0, 0.0f64, 0usize);
@@ -129,7 +129,7 @@ pub fn evaluate_vq(req: &RunEvalRequest) -> Result<(VqEvaluation, String)> {
         decoded.push(Sequence::new(name.clone(), frames_of(joints)));
     }
     let tokens = counts.iter().sum::<f32>() as usize;
-    let reference = crate::evaluate::reference_set(&ds, req.root, req.splits())?;
+    let reference = crate::evaluate::reference_set(&ds, req.root, Default::default())?;
     let cfg = EvalConfig {
         metrics_mode: MetricsMode::Corrected,
         seed_frames: 0,

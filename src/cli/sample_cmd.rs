@@ -8,6 +8,7 @@ use clap::Args;
 use qean_checkpoint::checkpoint;
 use qean_models::autoregress::AudioPad;
 use qean_pipeline::generate::{self, GenerateOptions, SeedSource};
+use qean_pipeline::gpt::TextRequest;
 
 /// Generate a dance for each song with a trained model (SPEC §6): one model pass per frame, sliding
 /// the motion and music windows; each new frame is the first output token (mint) or the mean of what
@@ -133,6 +134,14 @@ pub struct SampleArgs {
     /// With --genre: the seed of the genre noise z (another seed, another dance of the same genre).
     #[arg(long, default_value_t = 0, requires = "genre")]
     pub z_seed: u64,
+    /// GPT runs with a trained T-Base: put a described move into the dance (text control, SPEC §13.7). A .npy
+    /// of gpt.text_dim values (e.g. a CLIP ViT-B/32 text embedding; the encoder is not shipped: compute it
+    /// yourself) or genre:XX (the synthetic text set's pseudo-embedding of genre XX).
+    #[arg(long, requires = "text_interval")]
+    pub text_embedding: Option<String>,
+    /// With --text-embedding: where, in seconds of the output dance (seed included), e.g. 4.0..6.5.
+    #[arg(long, requires = "text_embedding")]
+    pub text_interval: Option<String>,
 }
 
 pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
@@ -143,35 +152,6 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         bail!("--frames must be at least 1");
     }
     let ck = checkpoint::resolve_in_run(&a.run, a.checkpoint.as_deref())?;
-    let draws = matches!(
-        ck.config.spec(),
-        ModelSpec::Tsmt(_) | ModelSpec::Gpt(_) | ModelSpec::GptGenre(..)
-    );
-    if !draws && (a.temperature.is_some() || a.top_k.is_some() || a.sample_seed != 0) {
-        tracing::warn!(
-            "--temperature, --top-k and --sample-seed are for TSMT runs; this {:?} run is deterministic and ignores them",
-            ck.config.model.arch
-        );
-    }
-    let token_model = matches!(
-        ck.config.spec(),
-        ModelSpec::Gpt(_) | ModelSpec::GptGenre(..)
-    );
-    if !token_model && (a.floor_window.is_some() || a.slide_window.is_some()) {
-        tracing::warn!(
-            "--floor-window and --slide-window are for GPT runs (a root integrated from decoded velocities); this {:?} run ignores them",
-            ck.config.model.arch
-        );
-    }
-    if let Some(t) = a.temperature.filter(|t| !(t.is_finite() && *t >= 0.0)) {
-        bail!("--temperature must be ≥ 0, got {t}");
-    }
-    if let Some(r) = a
-        .repetition_penalty
-        .filter(|r| !(r.is_finite() && *r >= 1.0))
-    {
-        bail!("--repetition-penalty must be ≥ 1 (1 = off), got {r}");
-    }
     let genre = genre_choice(&a, &ck)?;
     let decode = decode_choice(a.decode.as_deref(), &ck)?;
     let audio_len = ck.config.min_music_frames();
@@ -208,7 +188,9 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         slide_window: a.slide_window,
         sample_seed: a.sample_seed,
         genre,
+        text: TextRequest::of(a.text_embedding.as_deref(), a.text_interval.as_deref())?,
     };
+    opts.check(&ck)?;
     let pb = qean_checkpoint::progress::bar(a.frames as u64, "", "frames");
     let written = generate::generate(&ck, &songs, &seed, &opts, &a.out, |done, total| {
         pb.set_length(total as u64);

@@ -224,7 +224,11 @@ pub fn sweep(a: SweepArgs) -> anyhow::Result<i32> {
         stop: stop_flag(),
         ..TrainOptions::new(&out_dir)
     };
-    let scoring = SweepScoring::new(a.eval_frames.or(config.eval_frames), protocol);
+    let scoring = SweepScoring::new(
+        a.eval_frames
+            .or(config.eval_frames.filter(|_| protocol.is_none())),
+        protocol,
+    );
     let evaluator = |run_dir: &Path| scoring.metrics(run_dir);
     let evaluator = sweep::SweepEvaluator {
         key: scoring.key(),

@@ -19,7 +19,8 @@ use rand::{Rng, SeedableRng};
 
 use crate::family::{Family, StepContext};
 use qean_checkpoint::checkpoint::Checkpoint;
-use qean_checkpoint::gpt::{music_tokens, normal_noise, FrozenVq, FEATURES};
+pub use qean_checkpoint::gpt::genre_embedding;
+use qean_checkpoint::gpt::{music_tokens, FrozenVq, FEATURES};
 
 /// The GPT family: the frozen VQ-VAE once `prepare` has loaded it, and the text data of text steps.
 #[derive(Default)]
@@ -84,13 +85,6 @@ pub fn corrupt(tokens: &mut [i64], codes: usize, pkeep: f64, rng: &mut impl Rng)
             *t = rng.random_range(0..codes as i64);
         }
     }
-}
-
-/// A pseudo text embedding of a genre: a unit vector of `dim` seeded normal values (synthetic text data).
-pub fn genre_embedding(genre: usize, dim: usize) -> Vec<f32> {
-    let v = normal_noise(0x7465_7874 ^ genre as u64, dim);
-    let norm = v.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-12);
-    v.iter().map(|x| x / norm).collect()
 }
 
 /// Per-sample mean cross-entropy over each row's first `lengths[b]` positions, then the batch mean.

@@ -315,6 +315,24 @@ pub fn collect(out_dir: &Path) -> Result<Vec<RunResult>> {
         ));
     }
     records.sort_by(|(a, da), (b, db)| (a.index, da).cmp(&(b.index, db)));
+    // One summary, one way of scoring: runs scored under two protocols (or lengths) are not mixed.
+    let mut scored = records
+        .iter()
+        .filter(|(r, _)| r.evaluate && !r.eval_key.is_empty());
+    if let Some((first, a)) = scored.next() {
+        if let Some((other, b)) = scored.find(|(r, _)| r.eval_key != first.eval_key) {
+            return Err(Error::at(
+                out_dir,
+                format!(
+                    "runs scored differently: {} ({}) and {} ({}); score them again the same way (qean sweep with one --eval-frames and --protocol-preset)",
+                    a.display(),
+                    first.eval_key,
+                    b.display(),
+                    other.eval_key
+                ),
+            ));
+        }
+    }
     let mut results = Vec::new();
     for (r, dir) in records {
         let rows = crate::metrics_log::read(&dir.join("metrics.csv")).unwrap_or_default();

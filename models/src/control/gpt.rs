@@ -243,9 +243,26 @@ impl TBase {
 
     /// h^T [B, n, D] from the text embedding [B, 512] and input tokens [B, n − 1].
     pub fn forward(&self, text: Tensor<2>, tokens: Tensor<2, Int>) -> Tensor<3> {
+        let e = self.text_in.forward(text).unsqueeze_dim::<3>(1);
+        self.blocks_over(Tensor::cat(vec![e, self.tokens.forward(tokens)], 1))
+    }
+
+    /// h^T [1, 1 + len, D] of one embedding [1, 512] and a context of `tokens` (none at an interval's first
+    /// token: the embedding alone predicts it).
+    pub fn forward_context(&self, text: Tensor<2>, tokens: &[usize]) -> Tensor<3> {
         let device = text.device();
         let e = self.text_in.forward(text).unsqueeze_dim::<3>(1);
-        let x = Tensor::cat(vec![e, self.tokens.forward(tokens)], 1);
+        if tokens.is_empty() {
+            return self.blocks_over(e);
+        }
+        let ids: Vec<i64> = tokens.iter().map(|&t| t as i64).collect();
+        let ids = Tensor::<2, Int>::from_data(TensorData::new(ids, [1, tokens.len()]), &device);
+        self.blocks_over(Tensor::cat(vec![e, self.tokens.forward(ids)], 1))
+    }
+
+    /// Sinusoidal positions and the causal blocks over the embedded inputs.
+    fn blocks_over(&self, x: Tensor<3>) -> Tensor<3> {
+        let device = x.device();
         let [_, n, d] = x.dims();
         let mut x = x + sincos_positions(n, d, &device).unsqueeze::<3>();
         let bias = causal_bias(n, 1, &device);
