@@ -5,3 +5,4 @@ pub mod fusion;
 pub mod genre;
 pub mod genre_clf;
 pub mod gpt;
+pub mod keyframe;
