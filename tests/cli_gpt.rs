@@ -675,6 +675,43 @@ fn text_steps_alternate_with_music_steps_and_leave_the_idle_base_alone() {
             ],
             "unknown genre `XX`",
         ),
+        (
+            vec![
+                "--text-embedding",
+                "genre:KR",
+                "--text-interval",
+                "2.5..3.5",
+                "--text-embedding",
+                "genre:WA",
+                "--text-interval",
+                "3.0..4.0",
+            ],
+            "--text-interval 2.5..3.5 overlaps 3..4: one text at a time",
+        ),
+        (
+            vec![
+                "--text-embedding",
+                "genre:KR",
+                "--text-interval",
+                "2.5..3.05",
+                "--text-embedding",
+                "genre:WA",
+                "--text-interval",
+                "3.05..4.0",
+            ],
+            "--text-interval 2.5..3.05 and 3.05..4 share the token at 2.933 s (8 frames a token): start the second at 3.067 s or later",
+        ),
+        (
+            vec![
+                "--text-embedding",
+                "genre:KR",
+                "--text-embedding",
+                "genre:WA",
+                "--text-interval",
+                "3.0..4.0",
+            ],
+            "2 --text-embedding for 1 --text-interval",
+        ),
     ] {
         assert_clean_failure(&mut sample(&bad, &extra), message);
         assert!(

@@ -47,11 +47,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let seed: Motion = seed_clip(&source, SeedStart::Zero, ck.config.seed_frames())?;
         for requested in 0..=GENRES.len() {
-            let text = (requested > 0).then(|| TextRequest {
-                embedding: format!("genre:{}", GENRES[requested - 1]),
-                from_s,
-                to_s,
-            });
+            let text: Vec<TextRequest> = (requested > 0)
+                .then(|| TextRequest {
+                    embedding: format!("genre:{}", GENRES[requested - 1]),
+                    from_s,
+                    to_s,
+                })
+                .into_iter()
+                .collect();
             let dance = run
                 .dance(
                     &g,
@@ -59,7 +62,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     music,
                     frames,
                     &picking,
-                    (None, text.as_ref()),
+                    (None, &text),
                     &mut |_, _| {},
                 )?
                 .ok_or("the song is too short")?;

@@ -611,7 +611,7 @@ fn sample_gpt(
                 music,
                 req.max_frames,
                 &picking,
-                (choice, None),
+                (choice, &[]),
                 &mut |_, _| {},
             )?
             .ok_or_else(|| {

@@ -131,7 +131,7 @@ pub struct GenerateOptions {
     /// Genre control (genre-control GPT runs): the genre and the seed of z.
     pub genre: Option<crate::gpt::GenreChoice>,
     /// Text control (GPT runs whose T-Base was trained).
-    pub text: Option<crate::gpt::TextRequest>,
+    pub text: Vec<crate::gpt::TextRequest>,
 }
 
 impl GenerateOptions {
@@ -164,15 +164,17 @@ impl GenerateOptions {
                 "--repetition-penalty must be ≥ 1 (1 = off), got {r}"
             )));
         }
-        match &self.text {
-            Some(_) if !token_model => Err(Error::msg(format!(
+        if !self.text.is_empty() && !token_model {
+            return Err(Error::msg(format!(
                 "--text-embedding needs a GPT run with a trained T-Base (configs/control/gpt_tiny.toml with gpt.synthetic_text or gpt.text_dir); {} is a {:?} run",
                 ck.dir.display(),
                 ck.config.model.arch
-            ))),
-            Some(t) => t.check(ck.config.gpt_table(), ck.config.seed_frames()),
-            None => Ok(()),
+            )));
         }
+        for t in &self.text {
+            t.check(ck.config.gpt_table(), ck.config.seed_frames())?;
+        }
+        Ok(())
     }
 }
 

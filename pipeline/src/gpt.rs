@@ -176,18 +176,34 @@ pub struct TextControl {
 }
 
 impl TextRequest {
-    /// `--text-embedding E` over `--text-interval A..B`, if both are given.
-    pub fn of(embedding: Option<&str>, interval: Option<&str>) -> Result<Option<TextRequest>> {
-        let (Some(embedding), Some(interval)) = (embedding, interval) else {
-            return Ok(None);
-        };
-        let (from_s, to_s) =
-            Self::interval(interval).map_err(|e| Error::msg(format!("--text-interval {e}")))?;
-        Ok(Some(TextRequest {
-            embedding: embedding.to_string(),
-            from_s,
-            to_s,
-        }))
+    /// Each `--text-embedding` over the `--text-interval` given in the same place, in time order; two
+    /// intervals may not overlap.
+    pub fn list(embeddings: &[String], intervals: &[String]) -> Result<Vec<TextRequest>> {
+        if embeddings.len() != intervals.len() {
+            return Err(Error::msg(format!(
+                "{} --text-embedding for {} --text-interval: give one interval per embedding",
+                embeddings.len(),
+                intervals.len()
+            )));
+        }
+        let mut out = Vec::new();
+        for (embedding, interval) in embeddings.iter().zip(intervals) {
+            let (from_s, to_s) =
+                Self::interval(interval).map_err(|e| Error::msg(format!("--text-interval {e}")))?;
+            out.push(TextRequest {
+                embedding: embedding.clone(),
+                from_s,
+                to_s,
+            });
+        }
+        out.sort_by(|a, b| a.from_s.total_cmp(&b.from_s));
+        if let Some(w) = out.windows(2).find(|w| w[1].from_s < w[0].to_s) {
+            return Err(Error::msg(format!(
+                "--text-interval {}..{} overlaps {}..{}: one text at a time",
+                w[0].from_s, w[0].to_s, w[1].from_s, w[1].to_s
+            )));
+        }
+        Ok(out)
     }
 
     /// `A..B` in seconds, A < B.
@@ -239,6 +255,37 @@ impl TextRequest {
     /// On the token grid of a dance of `seed_tokens` seed and `n_total` tokens in all; an interval that
     /// starts inside the seed or ends after the dance is an error, and so is a GPT whose T-Base was never
     /// trained.
+    /// Every request's control (`requests` in time order, as `list` gives them); two intervals may not
+    /// share a token.
+    pub fn controls(
+        requests: &[TextRequest],
+        g: &GptConfig,
+        seed_tokens: usize,
+        n_total: usize,
+    ) -> Result<Vec<TextControl>> {
+        let controls = requests
+            .iter()
+            .map(|t| t.control(g, seed_tokens, n_total))
+            .collect::<Result<Vec<_>>>()?;
+        for k in 1..controls.len() {
+            if controls[k].start < controls[k - 1].end {
+                let (a, b) = (&requests[k - 1], &requests[k]);
+                return Err(Error::msg(format!(
+                    "--text-interval {}..{} and {}..{} share the token at {:.3} s ({} frames a token): start the second at {:.3} s or later",
+                    a.from_s,
+                    a.to_s,
+                    b.from_s,
+                    b.to_s,
+                    (controls[k].start * g.rate) as f64 / 60.0,
+                    g.rate,
+                    (controls[k - 1].end * g.rate) as f64 / 60.0
+                )));
+            }
+        }
+        Ok(controls)
+    }
+
+    /// This request as tokens [s, e) of a dance of `n_total` tokens whose first `seed_tokens` are the seed.
     pub fn control(
         &self,
         g: &GptConfig,
@@ -281,26 +328,52 @@ impl TextRequest {
     }
 }
 
-/// The head's input for the window [s, i] under text control `t` (eq. 2): h^M where the music weight is 1,
-/// else F = h^T (1 − w) + h^M w, h^T from one causal T-Base pass over [e_text, c_a, …, c_{last−1}]
-/// (last = min(i, end − 1); the context starts at the interval's start and slides to stay within the
-/// window, e_text kept first).
+/// The head's input for the window [s, i] under text controls `texts` (eq. 2, disjoint intervals): h^M
+/// where the music weight is 1, else F = h^T (1 − w) + h^M w with each position's h^T and w from the
+/// interval that holds it.
 fn text_window(
     model: &Gpt,
     g: &GptConfig,
-    t: &TextControl,
+    texts: &[TextControl],
     tokens: &[usize],
     (s, i): (usize, usize),
     h_m: Tensor<3>,
 ) -> Tensor<3> {
     use qean_models::control::fusion::{fuse, fusion_weights};
-    let w = fusion_weights(i + 1, t.start, t.end, g.text_ramp, g.text_schedule);
-    let w = &w[s..=i];
-    if w.iter().all(|&x| x == 1.0) {
-        return h_m;
+    let mut w = vec![1.0; i + 1 - s];
+    let mut h_t: Option<Tensor<3>> = None;
+    for t in texts {
+        let wt = fusion_weights(i + 1, t.start, t.end, g.text_ramp, g.text_schedule);
+        if wt[s..=i].iter().all(|&x| x == 1.0) {
+            continue;
+        }
+        for (a, b) in w.iter_mut().zip(&wt[s..=i]) {
+            *a = f64::min(*a, *b);
+        }
+        let part = text_rows(model, g, t, tokens, (s, i), h_m.dims()[2]);
+        h_t = Some(match h_t {
+            Some(acc) => acc + part,
+            None => part,
+        });
     }
-    let device = h_m.device();
-    let d = h_m.dims()[2];
+    match h_t {
+        Some(h_t) => fuse(h_t, h_m, &w),
+        None => h_m,
+    }
+}
+
+/// h^T of one text interval over the window [s, i] (zeros outside the interval): one causal T-Base pass over
+/// [e_text, c_a, …, c_{last−1}] (last = min(i, end − 1); the context starts at the interval's start and
+/// slides to stay within the window, e_text kept first).
+fn text_rows(
+    model: &Gpt,
+    g: &GptConfig,
+    t: &TextControl,
+    tokens: &[usize],
+    (s, i): (usize, usize),
+    d: usize,
+) -> Tensor<3> {
+    let device = Device::flex();
     let last = i.min(t.end - 1);
     let a = t.start.max((last + 1).saturating_sub(g.window));
     let text = Tensor::<1>::from_data(
@@ -319,7 +392,7 @@ fn text_window(
     if hi < i {
         parts.push(Tensor::zeros([1, i - hi, d], &device));
     }
-    fuse(Tensor::cat(parts, 1), h_m, w)
+    Tensor::cat(parts, 1)
 }
 
 /// Tokens n_total = min(seed + wanted, music tokens) from `seed` tokens and music tokens (n_total × 280);
@@ -329,7 +402,7 @@ fn text_window(
 pub fn sample_tokens(
     model: &Gpt,
     genre: Option<(&GenreModule, Tensor<3>)>,
-    text: Option<&TextControl>,
+    texts: &[TextControl],
     g: &GptConfig,
     seed: &[usize],
     music: &[f32],
@@ -369,9 +442,9 @@ pub fn sample_tokens(
             }
             None => model.m_base.forward(inputs, rows),
         };
-        let h = match text {
-            Some(t) => text_window(model, g, t, &tokens, (s, i), h_m),
-            None => h_m,
+        let h = match texts {
+            [] => h_m,
+            _ => text_window(model, g, texts, &tokens, (s, i), h_m),
         };
         let logits = model.head.forward(h);
         let last: Vec<f32> = logits
@@ -506,7 +579,7 @@ impl GptRun {
         music: (&[f32], usize),
         frames: usize,
         picking: &Picking,
-        (genre, text): (Option<GenreChoice>, Option<&TextRequest>),
+        (genre, texts): (Option<GenreChoice>, &[TextRequest]),
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<Option<Motion>> {
         let genre = self.genre_tokens(genre)?;
@@ -516,13 +589,11 @@ impl GptRun {
         if n_total <= seed_tokens.len() {
             return Ok(None);
         }
-        let text = text
-            .map(|t| t.control(g, seed_tokens.len(), n_total))
-            .transpose()?;
+        let texts = TextRequest::controls(texts, g, seed_tokens.len(), n_total)?;
         let tokens = sample_tokens(
             &self.model,
             genre,
-            text.as_ref(),
+            &texts,
             g,
             &seed_tokens,
             &music_tokens(music.0, n_total, g.rate),
@@ -578,7 +649,7 @@ pub fn generate(
             music,
             opts.frames,
             &picking,
-            (opts.genre, opts.text.as_ref()),
+            (opts.genre, &opts.text),
             progress,
         )?
         else {

@@ -136,12 +136,13 @@ pub struct SampleArgs {
     pub z_seed: u64,
     /// GPT runs with a trained T-Base: put a described move into the dance (text control, SPEC §13.7). A .npy
     /// of gpt.text_dim values (e.g. a CLIP ViT-B/32 text embedding; the encoder is not shipped: compute it
-    /// yourself) or genre:XX (the synthetic text set's pseudo-embedding of genre XX).
+    /// yourself) or genre:XX (the synthetic text set's pseudo-embedding of genre XX). Repeat it, each
+    /// with its own --text-interval, for several texts in one dance.
     #[arg(long, requires = "text_interval")]
-    pub text_embedding: Option<String>,
+    pub text_embedding: Vec<String>,
     /// With --text-embedding: where, in seconds of the output dance (seed included), e.g. 4.0..6.5.
     #[arg(long, requires = "text_embedding")]
-    pub text_interval: Option<String>,
+    pub text_interval: Vec<String>,
 }
 
 pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
@@ -188,7 +189,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         slide_window: a.slide_window,
         sample_seed: a.sample_seed,
         genre,
-        text: TextRequest::of(a.text_embedding.as_deref(), a.text_interval.as_deref())?,
+        text: TextRequest::list(&a.text_embedding, &a.text_interval)?,
     };
     opts.check(&ck)?;
     let pb = qean_checkpoint::progress::bar(a.frames as u64, "", "frames");

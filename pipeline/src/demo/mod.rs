@@ -609,7 +609,7 @@ fn dance(
             slide_window: None,
             sample_seed: 0,
             genre,
-            text: None,
+            text: Vec::new(),
         },
         &dir,
         |done, total| {
