@@ -720,3 +720,212 @@ fn text_steps_alternate_with_music_steps_and_leave_the_idle_base_alone() {
         );
     }
 }
+
+/// Keyframe control (SPEC §13.6): §13.9's counts, stage 3b over a frozen GPT with exact resume (only the
+/// keyframe module moves), `qean sample --keyframe` editing the dance around the keyframe and nowhere
+/// before it, and its bad inputs.
+#[test]
+fn keyframe_stage_trains_resumes_exactly_and_edits_around_the_keyframe() {
+    for (preset, counts) in [
+        ("control/keyframe_tiny.toml", ["66,560", "66,624"]),
+        ("control/keyframe_paper.toml", ["28,348,416", "28,349,184"]),
+    ] {
+        let out = run_ok(qean().arg("inspect").arg(configs().join(preset)));
+        for count in counts {
+            assert!(out.contains(count), "{preset} {count}: {out}");
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let data = dataset(dir.path());
+    let vq = dir.path().join("vq");
+    train_small_vq(&data, &vq, 2);
+    let gpt = dir.path().join("gpt");
+    let mut sets: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
+    sets.extend([
+        string_set("gpt.vqvae_run", &vq),
+        "train.steps=2".into(),
+        "train.batch_size=4".into(),
+    ]);
+    train("control/gpt_tiny.toml", &data, &gpt, &sets, false);
+
+    let kf_sets = |steps: u64, run: &Path| -> Vec<String> {
+        let mut s: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
+        s.extend(
+            [
+                "train.batch_size=4",
+                "train.checkpoint_every=2",
+                "train.val_every=2",
+            ]
+            .iter()
+            .map(|s| s.to_string()),
+        );
+        s.push(string_set("keyframe.gpt_run", run));
+        s.push(format!("train.steps={steps}"));
+        s
+    };
+    let straight = dir.path().join("kf");
+    train(
+        "control/keyframe_tiny.toml",
+        &data,
+        &straight,
+        &kf_sets(4, &gpt),
+        false,
+    );
+    let split = dir.path().join("kf_split");
+    let cfg = "control/keyframe_tiny.toml";
+    train(cfg, &data, &split, &kf_sets(2, &gpt), false);
+    train(cfg, &data, &split, &kf_sets(4, &gpt), true);
+    let last = |r: &Path| checkpoints(r).last().unwrap().clone();
+    assert_eq!(params_hash(&last(&straight)), params_hash(&last(&split)));
+    assert_eq!(losses(&straight), losses(&split));
+    // The GPT is the GPT run's sampled weights, bit for bit; the module starts as their copy and moves.
+    let frozen: Vec<(String, Vec<f32>)> = named_of(&last(&gpt), "", Weights::Sampled)
+        .into_iter()
+        .map(|p| (format!("gpt.{}", p.name), p.values))
+        .collect();
+    let inside: Vec<(String, Vec<f32>)> = named(&last(&straight), "gpt.")
+        .into_iter()
+        .map(|p| (p.name, p.values))
+        .collect();
+    assert_eq!(frozen, inside);
+    let cks = checkpoints(&straight);
+    assert_ne!(named(&cks[0], "keyframe."), named(&cks[1], "keyframe."));
+
+    // A keyframe at frame 400 (token 50: tokens 44–56 predicted again) from frame 100 of a training motion.
+    let motions = data.join("motions");
+    let source = std::fs::read_dir(&motions)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "pkl"))
+        .unwrap();
+    let song = shared().join("music/Kevin_MacLeod_-_Vibe_Ace.ogg");
+    let sample = |run: &Path, out: &Path, extra: &[String]| {
+        let mut c = qean();
+        c.args([
+            "sample",
+            "--frames",
+            "480",
+            "--floor-window",
+            "0",
+            "--slide-window",
+            "0",
+        ])
+        .arg("--run")
+        .arg(run)
+        .arg("--music")
+        .arg(&song)
+        .args(extra)
+        .arg("--out")
+        .arg(out);
+        c
+    };
+    let joints = |out: &Path| {
+        qean_io::npy::read(&out.join("Kevin_MacLeod_-_Vibe_Ace.joints.npy"))
+            .unwrap()
+            .data
+    };
+    let source_arg = source.display().to_string();
+    let key: Vec<String> = ["--keyframes-from", &source_arg, "--keyframe-frames", "400"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let plain = dir.path().join("kf_plain");
+    run_ok(&mut sample(&straight, &plain, &[]));
+    let keyed = dir.path().join("kf_keyed");
+    run_ok(&mut sample(&straight, &keyed, &key));
+    let (a, b) = (joints(&plain), joints(&keyed));
+    assert_eq!(a.len(), b.len());
+    // Before the masked span (token 44 = frame 352) less the decoder's reach, the dance is the same.
+    let frame = 72;
+    assert_eq!(a[..250 * frame], b[..250 * frame]);
+    assert_ne!(a, b, "the keyframe changed nothing");
+    // The same keyframe as a JSON file (frame 400's pose of the motion, axis-angle and translation).
+    let motion = qean_motion::motion::read_motion(&source).unwrap();
+    let pose: Vec<String> = motion.poses[400 * 72..401 * 72]
+        .iter()
+        .map(|v| v.to_string())
+        .collect();
+    let trans: Vec<String> = motion.trans[400 * 3..401 * 3]
+        .iter()
+        .map(|v| (v / motion.scaling).to_string())
+        .collect();
+    let json = dir.path().join("keys.json");
+    let entry = |frame: usize, n: usize| {
+        format!(
+            r#"{{"keyframes": [{{"frame": {frame}, "pose_aa": [{}], "trans": [{}]}}]}}"#,
+            pose[..n].join(", "),
+            trans.join(", ")
+        )
+    };
+    std::fs::write(&json, entry(400, 72)).unwrap();
+    let from_json = dir.path().join("kf_json");
+    let json_arg = json.display().to_string();
+    run_ok(&mut sample(
+        &straight,
+        &from_json,
+        &["--keyframes".into(), json_arg.clone()],
+    ));
+    assert_eq!(
+        joints(&from_json),
+        b,
+        "the JSON keyframe is the motion's frame"
+    );
+
+    // Bad inputs: one line each, nothing written.
+    let bad = dir.path().join("bad_kf");
+    let frames = |f: &str| -> Vec<String> {
+        vec![
+            "--keyframes-from".into(),
+            source_arg.clone(),
+            "--keyframe-frames".into(),
+            f.into(),
+        ]
+    };
+    let short = dir.path().join("short.json");
+    std::fs::write(&short, entry(400, 69)).unwrap();
+    for (run, extra, message) in [
+        (&gpt, key.clone(), "--keyframe needs a keyframe-control run"),
+        (&straight, frames("60"), "is inside the seed"),
+        (&straight, frames("9999"), "the motion has"),
+        (
+            &straight,
+            vec!["--keyframes".into(), short.display().to_string()],
+            "pose_aa has 69 values",
+        ),
+    ] {
+        assert_clean_failure(&mut sample(run, &bad, &extra), message);
+        assert!(
+            !bad.join("Kevin_MacLeod_-_Vibe_Ace.joints.npy").exists(),
+            "{message}"
+        );
+    }
+    // After the dance of 120 + 480 frames.
+    std::fs::write(&json, entry(700, 72)).unwrap();
+    let mut c = sample(&straight, &bad, &["--keyframes".into(), json_arg]);
+    assert_clean_failure(&mut c, "is after the dance");
+    // The fidelity test (SPEC §13.10): ground-truth poses at generated frame 240 of each test + val dance.
+    let table = run_ok(
+        qean()
+            .args(["eval", "--run"])
+            .arg(&straight)
+            .arg("--data")
+            .arg(&data)
+            .args(["--max-frames", "300"]),
+    );
+    assert!(
+        table.contains("# Keyframe fidelity") && table.contains("with keyframes"),
+        "{table}"
+    );
+    let report: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(straight.join("eval/step-4/keyframe.json")).unwrap(),
+    )
+    .unwrap();
+    assert!(report["keyframes"].as_u64().unwrap() >= 1, "{report}");
+    for set in ["edited", "plain"] {
+        let e = report[set]["kf_mpjpe"].as_f64().unwrap();
+        assert!(e.is_finite() && e > 0.0, "{set}: {report}");
+    }
+    let no_gpt = dir.path().join("kf_none");
+    let mut c = train_command(cfg, &data, &no_gpt, &["train.steps=1".to_string()], false);
+    assert_clean_failure(&mut c, "keyframe.gpt_run is not set");
+}

@@ -132,6 +132,11 @@ impl Checkpoint {
                 part(toml::to_string(g)),
                 part(toml::to_string(c))
             ),
+            ModelSpec::GptKeyframe(g, k) => format!(
+                "[gpt]\n{}\n[keyframe]\n{}",
+                part(toml::to_string(g)),
+                part(toml::to_string(k))
+            ),
             ModelSpec::FactQean(m) => part(toml::to_string(m)),
             ModelSpec::Tsmt(t) => part(toml::to_string(t)),
             ModelSpec::Inbetween(i) => part(toml::to_string(i)),

@@ -11,7 +11,7 @@ use rand::{Rng, SeedableRng};
 
 use crate::checkpoint::Checkpoint;
 use crate::registry::FamilyModel;
-use crate::vqvae::{motion_pos72, normalise};
+use crate::vqvae::{motion_pos72, normalise, pos72_options};
 
 /// Music feature columns.
 pub const FEATURES: usize = 35;
@@ -68,6 +68,33 @@ impl FrozenVq {
         normalise(&mut rows, c);
         let x = Tensor::<3>::from_data(TensorData::new(rows, [1, frames, POS72]), &Device::flex());
         self.model.tokens(x).map_err(Error::msg)
+    }
+}
+
+impl FrozenVq {
+    /// The static-clip token of each pose of 24 joints (SPEC §13.6 "Keyframe → token"): the pose held for
+    /// 8 tokens' frames (v = 0), encoded, and token 4 of its codes quantised.
+    pub fn static_tokens(&self, poses: &[&[[f64; 3]]]) -> Result<Vec<usize>> {
+        use qean_models::control::keyframe::{static_clip, STATIC_CLIP_TOKEN};
+        let c = self.checkpoint.config.vq_table();
+        let opts = pos72_options(c);
+        let frames = 2 * STATIC_CLIP_TOKEN * c.rate();
+        let mut out = Vec::with_capacity(poses.len());
+        for chunk in poses.chunks(64) {
+            let mut rows: Vec<f32> = Vec::with_capacity(chunk.len() * frames * POS72);
+            for pose in chunk {
+                rows.extend(static_clip(pose, frames, &opts).iter().map(|&v| v as f32));
+            }
+            normalise(&mut rows, c);
+            let x = Tensor::<3>::from_data(
+                TensorData::new(rows, [chunk.len(), frames, POS72]),
+                &Device::flex(),
+            );
+            let tokens = self.model.tokens(x).map_err(Error::msg)?;
+            let per = tokens.len() / chunk.len();
+            out.extend((0..chunk.len()).map(|b| tokens[b * per + STATIC_CLIP_TOKEN]));
+        }
+        Ok(out)
     }
 }
 

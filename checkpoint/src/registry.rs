@@ -9,6 +9,7 @@ use qean_io::error::{Error, Result};
 use qean_models::control::genre::GenreGpt;
 use qean_models::control::genre_clf::GenreClassifier;
 use qean_models::control::gpt::Gpt;
+use qean_models::control::keyframe::KeyframeGpt;
 use qean_models::inbetween::Inbetweener;
 use qean_models::params::{named_parameters, NamedParam};
 use qean_models::tsmt::Tsmt;
@@ -29,6 +30,7 @@ pub enum FamilyModel {
     Gpt(Gpt),
     GptGenre(GenreGpt),
     GenreClf(GenreClassifier),
+    GptKeyframe(KeyframeGpt),
 }
 
 impl FamilyModel {
@@ -42,6 +44,7 @@ impl FamilyModel {
             FamilyModel::Gpt(m) => named_parameters(m),
             FamilyModel::GptGenre(m) => named_parameters(m),
             FamilyModel::GenreClf(m) => named_parameters(m),
+            FamilyModel::GptKeyframe(m) => named_parameters(m),
         }
     }
 }
@@ -97,6 +100,9 @@ impl Checkpoint {
             ModelSpec::GenreClf(c) => {
                 FamilyModel::GenreClf(load_weights(GenreClassifier::new(c, device), &path)?)
             }
+            ModelSpec::GptKeyframe(g, _) => {
+                FamilyModel::GptKeyframe(load_weights(KeyframeGpt::new(g, device), &path)?)
+            }
         })
     }
 
@@ -117,7 +123,7 @@ impl Checkpoint {
             ModelSpec::GenreClf(_) => {
                 "a genre classifier checkpoint, not FACT or QEAN: `qean eval --run` scores it"
             }
-            ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) => {
+            ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) | ModelSpec::GptKeyframe(..) => {
                 "a music-to-dance GPT checkpoint, not FACT or QEAN: `qean sample` and `qean eval` take it"
             }
             ModelSpec::Vqvae(_) => {

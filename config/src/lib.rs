@@ -9,6 +9,7 @@ pub mod genre;
 pub mod genre_clf;
 pub mod gpt;
 pub mod inbetween;
+pub mod keyframe;
 pub mod model;
 pub mod recipe;
 pub mod run;

@@ -40,6 +40,8 @@ pub enum Arch {
     GptGenre,
     /// The genre classifier of the control evaluation (SPEC §13.10): the `[genre_clf]` table.
     GenreClf,
+    /// Keyframe control over a frozen GPT (SPEC §13.6): the `[gpt]` and `[keyframe]` tables.
+    GptKeyframe,
 }
 
 /// Attention score scale `s` (SPEC §4.1).

@@ -18,6 +18,7 @@ use crate::genre::GenreConfig;
 use crate::genre_clf::GenreClfConfig;
 use crate::gpt::GptConfig;
 use crate::inbetween::InbetweenConfig;
+use crate::keyframe::KeyframeConfig;
 use crate::recipe::RecipeConfig;
 use crate::schedule::ScheduleConfig;
 use crate::tsmt::TsmtConfig;
@@ -185,6 +186,9 @@ pub struct RunConfig {
     /// The genre-control stage (`model.arch = "gpt_genre"` only; written only then).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub genre: Option<GenreConfig>,
+    /// The keyframe-control stage (`model.arch = "gpt_keyframe"` only; written only then).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub keyframe: Option<KeyframeConfig>,
 }
 
 /// What one file of an `extends` chain may hold (every table optional and partial).
@@ -205,6 +209,7 @@ struct RunFile {
     gpt: Option<GptConfig>,
     genre_clf: Option<GenreClfConfig>,
     genre: Option<GenreConfig>,
+    keyframe: Option<KeyframeConfig>,
 }
 
 fn check_file(path: &Path, text: &str) -> Result<(), ConfigError> {
@@ -335,6 +340,10 @@ impl RunConfig {
                 config.gpt.get_or_insert_with(Default::default);
                 config.genre.get_or_insert_with(Default::default);
             }
+            Arch::GptKeyframe => {
+                config.gpt.get_or_insert_with(Default::default);
+                config.keyframe.get_or_insert_with(Default::default);
+            }
         }
         config
             .validate()
@@ -373,7 +382,7 @@ impl RunConfig {
         )?;
         check_section(
             self.gpt.as_ref(),
-            wants(&[Arch::Gpt, Arch::GptGenre]),
+            wants(&[Arch::Gpt, Arch::GptGenre, Arch::GptKeyframe]),
             "gpt",
             "gpt",
             arch,
@@ -386,6 +395,17 @@ impl RunConfig {
             "gpt_genre",
             arch,
             |t| t.validate(),
+        )?;
+        check_section(
+            self.keyframe.as_ref(),
+            wants(&[Arch::GptKeyframe]),
+            "keyframe",
+            "gpt_keyframe",
+            arch,
+            |k| {
+                k.validate()?;
+                k.validate_window(self.gpt_table().window)
+            },
         )?;
         check_section(
             self.vq.as_ref(),
@@ -439,7 +459,9 @@ impl RunConfig {
     /// `tsmt.seed_frames`.
     pub fn seed_frames(&self) -> usize {
         match self.spec() {
-            ModelSpec::Gpt(g) | ModelSpec::GptGenre(g, _) => g.seed_tokens * g.rate,
+            ModelSpec::Gpt(g) | ModelSpec::GptGenre(g, _) | ModelSpec::GptKeyframe(g, _) => {
+                g.seed_tokens * g.rate
+            }
             ModelSpec::Tsmt(t) => t.seed_frames,
             _ => self.model.motion_len,
         }
@@ -449,7 +471,9 @@ impl RunConfig {
     /// and one frame to hear (TSMT, one token for the GPT).
     pub fn min_music_frames(&self) -> usize {
         match self.spec() {
-            ModelSpec::Gpt(g) | ModelSpec::GptGenre(g, _) => (g.seed_tokens + 1) * g.rate,
+            ModelSpec::Gpt(g) | ModelSpec::GptGenre(g, _) | ModelSpec::GptKeyframe(g, _) => {
+                (g.seed_tokens + 1) * g.rate
+            }
             ModelSpec::Tsmt(t) => t.seed_frames + 1,
             _ => self.model.audio_len,
         }
@@ -468,12 +492,14 @@ impl RunConfig {
         match self.spec() {
             ModelSpec::GenreClf(g) => same(g.window),
             ModelSpec::Vqvae(v) => same(v.window),
-            ModelSpec::Gpt(g) | ModelSpec::GptGenre(g, _) => WindowSpec {
-                motion_len: g.window,
-                target_len: g.window,
-                target_shift: 1,
-                audio_len: g.window + 1 + g.music_lookahead,
-            },
+            ModelSpec::Gpt(g) | ModelSpec::GptGenre(g, _) | ModelSpec::GptKeyframe(g, _) => {
+                WindowSpec {
+                    motion_len: g.window,
+                    target_len: g.window,
+                    target_shift: 1,
+                    audio_len: g.window + 1 + g.music_lookahead,
+                }
+            }
             ModelSpec::Tsmt(t) => WindowSpec {
                 motion_len: t.window,
                 target_len: t.window,
@@ -522,6 +548,11 @@ impl RunConfig {
                 "genre control z {} tokens {} disc {}×{} ff {} {:?} {:?} over gpt hidden {} window {}; {run}",
                 c.z_dim, c.tokens, c.disc_width, c.disc_layers, c.disc_ff, c.gan_loss, c.relax,
                 g.hidden, g.window
+            )
+            .to_lowercase(),
+            ModelSpec::GptKeyframe(g, k) => format!(
+                "keyframe control radius {} centres ≤ {} {:?} static {} {:?} over gpt hidden {} window {}; {run}",
+                k.radius, k.max_centres, k.train_mask, k.static_prob, k.decode, g.hidden, g.window
             )
             .to_lowercase(),
             ModelSpec::Gpt(g) => format!(
@@ -699,7 +730,7 @@ mod tests {
             assert!(c.train.steps > 0, "{}", path.display());
             families.insert(c.spec().family());
         }
-        assert_eq!(families.len(), 7, "{families:?}");
+        assert_eq!(families.len(), 8, "{families:?}");
         let fact = RunConfig::load(&configs.join("fact.toml"), &[]).unwrap();
         assert_eq!(fact.train.batch_size, 32);
         assert_eq!(fact.schedule.boundaries, vec![100_000, 150_000]);

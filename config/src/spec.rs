@@ -8,6 +8,7 @@ use crate::genre::GenreConfig;
 use crate::genre_clf::GenreClfConfig;
 use crate::gpt::GptConfig;
 use crate::inbetween::InbetweenConfig;
+use crate::keyframe::KeyframeConfig;
 use crate::model::{Arch, ModelConfig};
 use crate::tsmt::TsmtConfig;
 use crate::vqvae::VqConfig;
@@ -30,6 +31,8 @@ pub enum ModelSpec<'a> {
     GptGenre(&'a GptConfig, &'a GenreConfig),
     /// The genre classifier of the control evaluation (`arch = "genre_clf"`, SPEC §13.10): `[genre_clf]`.
     GenreClf(&'a GenreClfConfig),
+    /// Keyframe control over a frozen GPT (`arch = "gpt_keyframe"`, SPEC §13.6): `[gpt]` and `[keyframe]`.
+    GptKeyframe(&'a GptConfig, &'a KeyframeConfig),
 }
 
 // A config built in code may lack its family's table; it then reads the preset defaults, as loading fills in.
@@ -39,6 +42,7 @@ static VQ: LazyLock<VqConfig> = LazyLock::new(VqConfig::default);
 static GPT: LazyLock<GptConfig> = LazyLock::new(GptConfig::default);
 static GENRE: LazyLock<GenreConfig> = LazyLock::new(GenreConfig::default);
 static GENRE_CLF: LazyLock<GenreClfConfig> = LazyLock::new(GenreClfConfig::default);
+static KEYFRAME: LazyLock<KeyframeConfig> = LazyLock::new(KeyframeConfig::default);
 
 impl RunConfig {
     /// The run's family and its config: `model.arch` with its table (the defaults where a config built in
@@ -52,6 +56,7 @@ impl RunConfig {
             Arch::Gpt => ModelSpec::Gpt(self.gpt_table()),
             Arch::GptGenre => ModelSpec::GptGenre(self.gpt_table(), self.genre_table()),
             Arch::GenreClf => ModelSpec::GenreClf(self.genre_clf_table()),
+            Arch::GptKeyframe => ModelSpec::GptKeyframe(self.gpt_table(), self.keyframe_table()),
         }
     }
 
@@ -84,11 +89,16 @@ impl RunConfig {
     pub fn genre_clf_table(&self) -> &GenreClfConfig {
         self.genre_clf.as_ref().unwrap_or(&GENRE_CLF)
     }
+
+    /// `[keyframe]`, or its defaults.
+    pub fn keyframe_table(&self) -> &KeyframeConfig {
+        self.keyframe.as_ref().unwrap_or(&KEYFRAME)
+    }
 }
 
 impl ModelSpec<'_> {
     /// The family's name, which is also its module's in every crate (`config/src/<name>.rs`,
-    /// `train/src/<name>.rs`, …): `fact_qean`, `tsmt`, `inbetween`, `vqvae`, `gpt`, `genre`, `genre_clf`.
+    /// `train/src/<name>.rs`, …): `fact_qean`, `tsmt`, `inbetween`, `vqvae`, `gpt`, `genre`, `genre_clf`, `keyframe`.
     pub fn family(self) -> &'static str {
         match self {
             ModelSpec::FactQean(_) => "fact_qean",
@@ -98,6 +108,7 @@ impl ModelSpec<'_> {
             ModelSpec::Gpt(_) => "gpt",
             ModelSpec::GptGenre(..) => "genre",
             ModelSpec::GenreClf(_) => "genre_clf",
+            ModelSpec::GptKeyframe(..) => "keyframe",
         }
     }
 }
@@ -119,6 +130,7 @@ mod tests {
             (Arch::Gpt, "gpt"),
             (Arch::GptGenre, "genre"),
             (Arch::GenreClf, "genre_clf"),
+            (Arch::GptKeyframe, "keyframe"),
         ];
         for (arch, name) in names {
             let mut c = RunConfig::default();

@@ -19,6 +19,7 @@ pub mod error;
 pub mod fid;
 pub mod geometric;
 pub mod io;
+pub mod keyframe_fidelity;
 pub mod kinetic;
 pub mod li_metrics;
 pub mod motion_beats;

@@ -486,6 +486,34 @@ impl MotionEnergy {
         }
     }
 
+    /// What is wrong with the dance, a sentence each (none when it dances): froze, too fast, jitters.
+    pub fn warnings(&self, reference: &EnergyReference) -> Vec<String> {
+        let v = self.verdict();
+        let mut out = Vec::new();
+        if v.froze {
+            out.push(format!(
+                "the dance froze (speed ratio per 5 s {}, {:.0} % of 1-s windows below {:.3} m/s)",
+                self.span_speed_ratios(),
+                100.0 * self.freeze_fraction,
+                reference.freeze_threshold()
+            ));
+        }
+        if !self.dances() && !v.froze && !v.jitters {
+            out.push(format!(
+                "the dance moves too fast (speed ratio per 5 s {}, above 1.6 in a span)",
+                self.span_speed_ratios()
+            ));
+        }
+        if v.jitters {
+            out.push(format!(
+                "the dance jitters (acceleration ratio per 5 s {}, reference {:.2} m/s²)",
+                self.span_accel_ratios(),
+                reference.accel
+            ));
+        }
+        out
+    }
+
     /// One line a person reads: speed per 5-s span, acceleration, frozen share, and the verdict.
     pub fn describe(&self, reference: &EnergyReference) -> String {
         let spans: Vec<String> = self

@@ -91,6 +91,24 @@ fn family_summary(run: &RunConfig, path: &Path) -> Result<(usize, String), Confi
             );
             (params, summary)
         }
+        ModelSpec::GptKeyframe(g, k) => {
+            let model = crate::control::keyframe::KeyframeGpt::new(g, &device);
+            let params = model.keyframe.num_params();
+            let summary = format!(
+                "{}  keyframe module (trained; the GPT above is frozen): attention copies of {} M-Base + {} head blocks, (L_b + L_h)·4(D² + D) = {} (§13.9), + the Mask row {} = {}\n  mask attention (every position sees every other), k = {}, {:?} masks of ≤ {} centres, decode {:?}\n",
+                gpt_summary(g, &model.gpt, Some(path)),
+                g.base_layers,
+                g.head_layers,
+                group_digits(crate::control::keyframe::keyframe_params(g)),
+                g.hidden,
+                group_digits(params),
+                k.radius,
+                k.train_mask,
+                k.max_centres,
+                k.decode
+            );
+            (params, summary)
+        }
         ModelSpec::Gpt(g) => {
             let model = crate::control::gpt::Gpt::new(g, &device);
             (model.num_params(), gpt_summary(g, &model, Some(path)))
@@ -201,6 +219,7 @@ pub fn summary(c: &ModelConfig, model: &DanceModel, path: Option<&Path>) -> Stri
         Arch::Gpt => "music-to-dance GPT (configured by [gpt])",
         Arch::GptGenre => "genre control over a GPT (configured by [gpt] and [genre])",
         Arch::GenreClf => "genre classifier (configured by [genre_clf])",
+        Arch::GptKeyframe => "keyframe control over a GPT (configured by [gpt] and [keyframe])",
     };
     let from = path
         .map(|p| format!(" from {}", p.display()))

@@ -44,6 +44,7 @@ impl DanceModel {
             Arch::Inbetween => "qean_models::inbetween::Inbetweener from its [inbetween] table",
             Arch::GenreClf => "qean_models::control::genre_clf::GenreClassifier",
             Arch::GptGenre => "qean_models::control::genre::GenreGpt",
+            Arch::GptKeyframe => "qean_models::control::keyframe::KeyframeGpt",
             Arch::Gpt => "qean_models::control::gpt::Gpt from its [gpt] table",
             Arch::Vqvae => "qean_models::vqvae::VqVae from its [vq] table",
         };

@@ -15,7 +15,7 @@ use qean_eval::run_report::SeedStart;
 use qean_motion::motion::Motion;
 use qean_pipeline::generate::{load_song, seed_clip, SeedSource};
 use qean_pipeline::genre_clf::TrainedClf;
-use qean_pipeline::gpt::{GptRun, Picking, PickingOverrides, TextRequest};
+use qean_pipeline::gpt::{Controls, GptRun, Picking, PickingOverrides, TextRequest};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -62,7 +62,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     music,
                     frames,
                     &picking,
-                    (None, &text),
+                    Controls {
+                        texts: &text,
+                        ..Default::default()
+                    },
                     &mut |_, _| {},
                 )?
                 .ok_or("the song is too short")?;

@@ -150,13 +150,17 @@ pub struct RunEvaluation {
 }
 
 /// Checkpoint mode for any family: the VQ-VAE's reconstruction report, the genre classifier's accuracy,
-/// genre control's control test (with the judge `classifier`), or the dance metrics of the rest; returns
+/// genre control's control test (with the judge `classifier`), keyframe control's fidelity test, or the
+/// dance metrics of the rest; returns
 /// the markdown to print.
 pub fn evaluate_family(req: &RunEvalRequest, classifier: Option<&Path>) -> Result<String> {
     let ck = qean_checkpoint::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
     match (ck.config.spec(), classifier) {
         (ModelSpec::Vqvae(_), _) => Ok(crate::vqvae::evaluate_vq(req)?.1),
         (ModelSpec::GenreClf(_), _) => Ok(crate::genre_clf::evaluate_clf(req)?.1),
+        (ModelSpec::GptKeyframe(..), None) => {
+            Ok(crate::keyframe_fidelity::keyframe_fidelity(req)?.1)
+        }
         (_, Some(clf)) => Ok(crate::genre_control::control_test(req, clf)?.1),
         _ => Ok(evaluate_run(req)?.table),
     }
@@ -531,7 +535,7 @@ fn sample_dances(
         ModelSpec::Tsmt(_) => {
             sample_tsmt(req, ck, requests, opts, draw_seed, backend, &mut progress)?
         }
-        ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) => {
+        ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) | ModelSpec::GptKeyframe(..) => {
             sample_gpt(req, ck, (requests, genres), opts, draw_seed, &mut progress)?
         }
         _ => {
@@ -611,7 +615,7 @@ fn sample_gpt(
                 music,
                 req.max_frames,
                 &picking,
-                (choice, &[]),
+                crate::gpt::Controls::genre(choice),
                 &mut |_, _| {},
             )?
             .ok_or_else(|| {
@@ -763,6 +767,9 @@ fn label(config: &qean_config::RunConfig, step: u64) -> String {
         qean_config::model::Arch::Vqvae => format!("VQ-VAE step {step}"),
         qean_config::model::Arch::Gpt => format!("VQ-VAE + GPT step {step}"),
         qean_config::model::Arch::GptGenre => format!("VQ-VAE + GPT + genre control step {step}"),
+        qean_config::model::Arch::GptKeyframe => {
+            format!("VQ-VAE + GPT + keyframe control step {step}")
+        }
         qean_config::model::Arch::GenreClf => format!("genre classifier step {step}"),
         qean_config::model::Arch::Qean => format!(
             "QEAN ({:?} positions, {:?} attention) step {step}",

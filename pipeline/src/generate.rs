@@ -132,6 +132,8 @@ pub struct GenerateOptions {
     pub genre: Option<crate::gpt::GenreChoice>,
     /// Text control (GPT runs whose T-Base was trained).
     pub text: Vec<crate::gpt::TextRequest>,
+    /// Keyframe control (keyframe-control GPT runs).
+    pub keyframes: Vec<crate::gpt::KeyframeRequest>,
 }
 
 impl GenerateOptions {
@@ -139,7 +141,10 @@ impl GenerateOptions {
     /// is not a GPT, is an error.
     pub fn check(&self, ck: &Checkpoint) -> Result<()> {
         let spec = ck.config.spec();
-        let token_model = matches!(spec, ModelSpec::Gpt(_) | ModelSpec::GptGenre(..));
+        let token_model = matches!(
+            spec,
+            ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) | ModelSpec::GptKeyframe(..)
+        );
         let draws = token_model || matches!(spec, ModelSpec::Tsmt(_));
         if !draws && (self.temperature.is_some() || self.top_k.is_some() || self.sample_seed != 0) {
             tracing::warn!(
@@ -173,6 +178,16 @@ impl GenerateOptions {
         }
         for t in &self.text {
             t.check(ck.config.gpt_table(), ck.config.seed_frames())?;
+        }
+        if !self.keyframes.is_empty() && !matches!(spec, ModelSpec::GptKeyframe(..)) {
+            return Err(Error::msg(format!(
+                "--keyframe needs a keyframe-control run (model.arch = \"gpt_keyframe\", configs/control/keyframe_tiny.toml); {} is a {:?} run",
+                ck.dir.display(),
+                ck.config.model.arch
+            )));
+        }
+        for k in &self.keyframes {
+            k.check(ck.config.seed_frames(), self.frames)?;
         }
         Ok(())
     }
@@ -215,7 +230,7 @@ pub fn generate(
             let seed = Motion::from_layout(seed, ck.config.layout()).map_err(Error::msg)?;
             return crate::tsmt::generate(ck, songs, &seed, opts, out, &mut progress);
         }
-        ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) => {
+        ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) | ModelSpec::GptKeyframe(..) => {
             let seed = Motion::from_layout(seed, ck.config.layout()).map_err(Error::msg)?;
             return crate::gpt::generate(ck, songs, &seed, opts, out, &mut progress);
         }

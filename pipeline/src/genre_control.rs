@@ -126,7 +126,7 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
                     audio,
                     req.max_frames,
                     &picking,
-                    (Some(choice), &[]),
+                    crate::gpt::Controls::genre(Some(choice)),
                     &mut |_, _| {},
                 )?
                 .ok_or_else(|| {

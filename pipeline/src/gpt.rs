@@ -22,6 +22,9 @@ use qean_motion::pos72::pos72_to_joints;
 use rand::{Rng, SeedableRng};
 
 use crate::generate::{export_motion, GenerateOptions, Generated, Song};
+pub use crate::keyframe_control::KeyframeRequest;
+use qean_config::keyframe::KeyframeConfig;
+use qean_models::control::keyframe::KeyframeModule;
 
 /// How each token is picked (SPEC §13.8 "Picking").
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -252,9 +255,6 @@ impl TextRequest {
             .map(|_| ())
     }
 
-    /// On the token grid of a dance of `seed_tokens` seed and `n_total` tokens in all; an interval that
-    /// starts inside the seed or ends after the dance is an error, and so is a GPT whose T-Base was never
-    /// trained.
     /// Every request's control (`requests` in time order, as `list` gives them); two intervals may not
     /// share a token.
     pub fn controls(
@@ -285,7 +285,9 @@ impl TextRequest {
         Ok(controls)
     }
 
-    /// This request as tokens [s, e) of a dance of `n_total` tokens whose first `seed_tokens` are the seed.
+    /// On the token grid of a dance of `seed_tokens` seed and `n_total` tokens in all; an interval that
+    /// starts inside the seed or ends after the dance is an error, and so is a GPT whose T-Base was never
+    /// trained.
     pub fn control(
         &self,
         g: &GptConfig,
@@ -528,11 +530,31 @@ pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize], d: Decoding)
     Motion::new(poses, trans, 1.0).expect("whole frames")
 }
 
+/// What a GPT dance follows besides the music: a genre (genre-control runs), texts over intervals (a GPT
+/// whose T-Base was trained), keyframes (keyframe-control runs).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Controls<'a> {
+    pub genre: Option<GenreChoice>,
+    pub texts: &'a [TextRequest],
+    pub keyframes: &'a [KeyframeRequest],
+}
+
+impl Controls<'_> {
+    /// A genre alone (or nothing).
+    pub fn genre(genre: Option<GenreChoice>) -> Self {
+        Controls {
+            genre,
+            ..Default::default()
+        }
+    }
+}
+
 /// A GPT run with its frozen VQ-VAE, loaded once; a genre-control run also brings its genre module (its
-/// discriminator is not needed to sample).
+/// discriminator is not needed to sample), a keyframe-control run its keyframe module.
 pub struct GptRun {
     pub model: Gpt,
     pub genre: Option<(GenreModule, usize)>,
+    pub keyframe: Option<(KeyframeModule, KeyframeConfig)>,
     pub vq: FrozenVq,
     /// The seam's frames and the floor's and the glide's windows (the run's `recipe.seam_frames`,
     /// `gpt.floor_window` and `gpt.slide_window` unless a command line says otherwise).
@@ -542,14 +564,22 @@ pub struct GptRun {
 impl GptRun {
     pub fn load(ck: &Checkpoint) -> Result<GptRun> {
         let vq = FrozenVq::load(ck.config.gpt_table(), ck.run_dir().as_deref())?;
-        let (model, genre) = match ck.load_family(&Device::flex())? {
-            FamilyModel::Gpt(model) => (model, None),
-            FamilyModel::GptGenre(m) => (m.gpt, Some((m.genre, ck.config.genre_table().z_dim))),
+        let (model, genre, keyframe) = match ck.load_family(&Device::flex())? {
+            FamilyModel::Gpt(model) => (model, None, None),
+            FamilyModel::GptGenre(m) => {
+                (m.gpt, Some((m.genre, ck.config.genre_table().z_dim)), None)
+            }
+            FamilyModel::GptKeyframe(m) => (
+                m.gpt,
+                None,
+                Some((m.keyframe, ck.config.keyframe_table().clone())),
+            ),
             _ => return Err(ck.not_family("a music-to-dance GPT")),
         };
         Ok(GptRun {
             model,
             genre,
+            keyframe,
             vq,
             decoding: Decoding::of(&ck.config),
         })
@@ -579,28 +609,45 @@ impl GptRun {
         music: (&[f32], usize),
         frames: usize,
         picking: &Picking,
-        (genre, texts): (Option<GenreChoice>, &[TextRequest]),
+        controls: Controls,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<Option<Motion>> {
-        let genre = self.genre_tokens(genre)?;
+        let genre = self.genre_tokens(controls.genre)?;
         let seed_tokens = self.vq.tokens(seed, seed.frames / g.rate * g.rate)?;
         let available = music.1 / g.rate;
         let n_total = (seed_tokens.len() + frames.div_ceil(g.rate)).min(available);
         if n_total <= seed_tokens.len() {
             return Ok(None);
         }
-        let texts = TextRequest::controls(texts, g, seed_tokens.len(), n_total)?;
-        let tokens = sample_tokens(
+        let texts = TextRequest::controls(controls.texts, g, seed_tokens.len(), n_total)?;
+        let music = music_tokens(music.0, n_total, g.rate);
+        let mut tokens = sample_tokens(
             &self.model,
             genre,
             &texts,
             g,
             &seed_tokens,
-            &music_tokens(music.0, n_total, g.rate),
+            &music,
             n_total,
             picking,
             progress,
         );
+        if !controls.keyframes.is_empty() {
+            let Some((module, c)) = &self.keyframe else {
+                return Err(Error::msg(
+                    "--keyframe needs a keyframe-control run (model.arch = \"gpt_keyframe\", configs/control/keyframe_tiny.toml); this GPT has no keyframe module",
+                ));
+            };
+            tokens = crate::keyframe_control::apply_keyframes(
+                (&self.model, module, c),
+                &self.vq,
+                g,
+                &tokens,
+                seed_tokens.len(),
+                &music,
+                controls.keyframes,
+            )?;
+        }
         let motion = decode_dance(&self.vq, seed, &tokens, self.decoding);
         Ok(Some(
             motion.slice(0, (seed.frames + frames).min(motion.frames)),
@@ -649,7 +696,11 @@ pub fn generate(
             music,
             opts.frames,
             &picking,
-            (opts.genre, &opts.text),
+            Controls {
+                genre: opts.genre,
+                texts: &opts.text,
+                keyframes: &opts.keyframes,
+            },
             progress,
         )?
         else {

@@ -17,6 +17,8 @@ pub mod genre_control;
 pub mod gpt;
 pub mod inbetween;
 pub mod inbetween_benchmark;
+pub mod keyframe_control;
+pub mod keyframe_fidelity;
 pub mod keyframes;
 pub mod tsmt;
 pub mod view;

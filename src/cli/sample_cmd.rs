@@ -8,7 +8,7 @@ use clap::Args;
 use qean_checkpoint::checkpoint;
 use qean_models::autoregress::AudioPad;
 use qean_pipeline::generate::{self, GenerateOptions, SeedSource};
-use qean_pipeline::gpt::TextRequest;
+use qean_pipeline::gpt::{KeyframeRequest, TextRequest};
 
 /// Generate a dance for each song with a trained model (SPEC §6): one model pass per frame, sliding
 /// the motion and music windows; each new frame is the first output token (mint) or the mean of what
@@ -143,6 +143,18 @@ pub struct SampleArgs {
     /// With --text-embedding: where, in seconds of the output dance (seed included), e.g. 4.0..6.5.
     #[arg(long, requires = "text_embedding")]
     pub text_interval: Vec<String>,
+    /// Keyframe-control runs (model.arch = "gpt_keyframe", SPEC §13.6): poses the dance must pass through,
+    /// {"keyframes": [{"frame": F, "pose_aa": [72 SMPL axis-angle], "trans": [3]}, ...]}, F a frame of the
+    /// output dance (60 fps, seed included).
+    #[arg(long, conflicts_with = "keyframes_from")]
+    pub keyframes: Option<PathBuf>,
+    /// Keyframe-control runs: take the keyframes from this motion file (.pkl), at --keyframe-frames.
+    #[arg(long, requires = "keyframe_frames")]
+    pub keyframes_from: Option<PathBuf>,
+    /// With --keyframes-from: frames of the output dance (seed included), e.g. 240,600; each takes that
+    /// frame's pose of the motion file.
+    #[arg(long, value_delimiter = ',', requires = "keyframes_from")]
+    pub keyframe_frames: Vec<usize>,
 }
 
 pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
@@ -190,6 +202,12 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         sample_seed: a.sample_seed,
         genre,
         text: TextRequest::list(&a.text_embedding, &a.text_interval)?,
+        keyframes: KeyframeRequest::of_args(
+            a.keyframes.as_deref(),
+            a.keyframes_from
+                .as_deref()
+                .map(|m| (m, a.keyframe_frames.as_slice())),
+        )?,
     };
     opts.check(&ck)?;
     let pb = qean_checkpoint::progress::bar(a.frames as u64, "", "frames");
@@ -235,30 +253,8 @@ fn print_motion(
                 e.span_speed_ratios(),
                 e.span_accel_ratios()
             );
-            let v = e.verdict();
-            if v.froze {
-                tracing::warn!(
-                    "{}: the dance froze (speed ratio per 5 s {}, {:.0} % of 1-s windows below {:.3} m/s)",
-                    name,
-                    e.span_speed_ratios(),
-                    100.0 * e.freeze_fraction,
-                    r.freeze_threshold()
-                );
-            }
-            if !e.dances() && !v.froze && !v.jitters {
-                tracing::warn!(
-                    "{}: the dance moves too fast (speed ratio per 5 s {}, above 1.6 in a span)",
-                    name,
-                    e.span_speed_ratios()
-                );
-            }
-            if v.jitters {
-                tracing::warn!(
-                    "{}: the dance jitters (acceleration ratio per 5 s {}, reference {:.2} m/s²)",
-                    name,
-                    e.span_accel_ratios(),
-                    r.accel
-                );
+            for w in e.warnings(r) {
+                tracing::warn!("{name}: {w}");
             }
         }
         _ => {

@@ -12,73 +12,21 @@ use burn::tensor::{Device, Tensor, TensorData};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::windows::{Batch, SequenceSet, WindowSpec};
 use qean_config::genre::{GenreConfig, Relax, XattnOn};
-use qean_config::gpt::{GptConfig, MLayout};
+use qean_config::gpt::MLayout;
 use qean_config::run::RunConfig;
 use qean_io::error::{Error, Result};
 use qean_models::control::genre::{disc_loss, gen_adv_loss, gumbel_relax, GenreGpt, GENRES};
-use qean_models::control::gpt::Gpt;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::family::{param_ids, Family, StepContext};
-use crate::gpt::{cross_entropy, gpt_of, tensors, GptFamily, GptInputs};
+use crate::gpt::{cross_entropy, gpt_of, tensors, FrozenGpt, GptFamily, GptInputs};
 use qean_checkpoint::checkpoint::Checkpoint;
 use qean_checkpoint::gpt::normal_noise;
-use qean_checkpoint::FamilyModel;
 
 /// The `[genre]` table of a genre-control run.
 pub fn genre_of_config(config: &RunConfig) -> &GenreConfig {
     config.genre_table()
-}
-
-/// The frozen GPT of a genre stage.
-pub struct FrozenGpt {
-    pub checkpoint: Checkpoint,
-}
-
-impl FrozenGpt {
-    /// The newest checkpoint of `genre.gpt_run`, a plain GPT run whose `[gpt]` sizes equal `g`'s.
-    pub fn resolve(c: &GenreConfig, g: &GptConfig) -> Result<FrozenGpt> {
-        let run = c.gpt_run.as_ref().ok_or_else(|| {
-            Error::msg(
-                "genre.gpt_run is not set: name the trained GPT run (--set genre.gpt_run=DIR)",
-            )
-        })?;
-        let checkpoint = qean_checkpoint::checkpoint::resolve(run)
-            .map_err(|e| Error::msg(format!("genre.gpt_run: {e}")))?;
-        let theirs = match checkpoint.config.spec() {
-            qean_config::ModelSpec::Gpt(t) => t,
-            _ => {
-                return Err(Error::at(
-                    &checkpoint.dir,
-                    format!(
-                        "genre.gpt_run is not a music-to-dance GPT run (model.arch = {:?})",
-                        checkpoint.config.model.arch
-                    ),
-                ))
-            }
-        };
-        if theirs.shape() != g.shape() {
-            return Err(Error::at(
-                &checkpoint.dir,
-                format!(
-                    "the GPT run is {:?}, this config's [gpt] is {:?} ({})",
-                    theirs.shape(),
-                    g.shape(),
-                    GptConfig::SHAPE_FIELDS
-                ),
-            ));
-        }
-        Ok(FrozenGpt { checkpoint })
-    }
-
-    /// Its weights on `device`.
-    pub fn load(&self, device: &Device) -> Result<Gpt> {
-        match self.checkpoint.load_family(device)? {
-            FamilyModel::Gpt(m) => Ok(m),
-            _ => Err(self.checkpoint.not_family("a music-to-dance GPT")),
-        }
-    }
 }
 
 /// The genre family: the GPT family's data (tokens of the frozen VQ-VAE), the frozen GPT and codebook.
@@ -214,7 +162,7 @@ impl Family for GenreFamily {
         resume: Option<&Checkpoint>,
     ) -> Result<()> {
         let c = genre_of_config(config).clone();
-        let frozen = FrozenGpt::resolve(&c, gpt_of(config))?;
+        let frozen = FrozenGpt::resolve(c.gpt_run.as_deref(), "genre", gpt_of(config))?;
         let g = gpt_of(config);
         if g.m_layout == MLayout::TwoStream && c.xattn_on == XattnOn::Music {
             // h^M is read at the token stream: a music position's update reaches it only through the
@@ -229,21 +177,7 @@ impl Family for GenreFamily {
                 "genre.xattn_on = \"music\": the last M-Base block's cross-attention cannot reach the output and stays at zero"
             );
         }
-        frozen.load(&Device::flex())?;
-        let vq_run = frozen
-            .checkpoint
-            .config
-            .gpt
-            .as_ref()
-            .and_then(|g| g.vqvae_run.clone());
-        if let Some(g) = config.gpt.as_mut() {
-            g.vqvae_run = vq_run;
-        }
-        // The GPT hears the music as it trained on it (its `recipe.audio_norm` and statistics).
-        let heard = &frozen.checkpoint.config.recipe;
-        config.recipe.audio_norm = heard.audio_norm;
-        config.recipe.audio_mean = heard.audio_mean.clone();
-        config.recipe.audio_std = heard.audio_std.clone();
+        frozen.adopt(config)?;
         self.base.prepare(config, dataset, train, resume)?;
         let vq = self
             .base
@@ -417,6 +351,7 @@ impl Family for GenreFamily {
 mod tests {
     use super::*;
     use burn::tensor::Distribution;
+    use qean_config::gpt::GptConfig;
     use qean_models::params::named_parameters;
 
     /// One generator-group update moves the genre module (W_o leaves zero) and nothing else, even with the

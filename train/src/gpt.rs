@@ -21,6 +21,8 @@ use crate::family::{Family, StepContext};
 use qean_checkpoint::checkpoint::Checkpoint;
 pub use qean_checkpoint::gpt::genre_embedding;
 use qean_checkpoint::gpt::{music_tokens, FrozenVq, FEATURES};
+use qean_checkpoint::FamilyModel;
+use std::path::Path;
 
 /// The GPT family: the frozen VQ-VAE once `prepare` has loaded it, and the text data of text steps.
 #[derive(Default)]
@@ -248,6 +250,77 @@ pub fn tensors(batch: &Batch, g: &GptConfig, pkeep: f64, seed: u64, device: &Dev
         tokens: Tensor::from_data(TensorData::new(tokens, [b, n]), device),
         music: Tensor::from_data(TensorData::new(music, [b, n, w]), device),
         targets: Tensor::from_data(TensorData::new(targets, [b, n]), device),
+    }
+}
+
+/// The frozen GPT of a control stage (genre, keyframe).
+pub struct FrozenGpt {
+    pub checkpoint: Checkpoint,
+}
+
+impl FrozenGpt {
+    /// The newest checkpoint of `run` (the stage's `TABLE.gpt_run`), a plain GPT run whose `[gpt]` sizes
+    /// equal `g`'s.
+    pub fn resolve(run: Option<&Path>, table: &str, g: &GptConfig) -> Result<FrozenGpt> {
+        let run = run.ok_or_else(|| {
+            Error::msg(format!(
+                "{table}.gpt_run is not set: name the trained GPT run (--set {table}.gpt_run=DIR)"
+            ))
+        })?;
+        let checkpoint = qean_checkpoint::checkpoint::resolve(run)
+            .map_err(|e| Error::msg(format!("{table}.gpt_run: {e}")))?;
+        let theirs = match checkpoint.config.spec() {
+            qean_config::ModelSpec::Gpt(t) => t,
+            _ => {
+                return Err(Error::at(
+                    &checkpoint.dir,
+                    format!(
+                        "{table}.gpt_run is not a music-to-dance GPT run (model.arch = {:?})",
+                        checkpoint.config.model.arch
+                    ),
+                ))
+            }
+        };
+        if theirs.shape() != g.shape() {
+            return Err(Error::at(
+                &checkpoint.dir,
+                format!(
+                    "the GPT run is {:?}, this config's [gpt] is {:?} ({})",
+                    theirs.shape(),
+                    g.shape(),
+                    GptConfig::SHAPE_FIELDS
+                ),
+            ));
+        }
+        Ok(FrozenGpt { checkpoint })
+    }
+
+    /// Takes the GPT's VQ-VAE run and the music as it heard it (its `recipe.audio_norm` and statistics)
+    /// into the stage's config, after checking that its weights load.
+    pub fn adopt(&self, config: &mut RunConfig) -> Result<()> {
+        self.load(&Device::flex())?;
+        let vq_run = self
+            .checkpoint
+            .config
+            .gpt
+            .as_ref()
+            .and_then(|g| g.vqvae_run.clone());
+        if let Some(g) = config.gpt.as_mut() {
+            g.vqvae_run = vq_run;
+        }
+        let heard = &self.checkpoint.config.recipe;
+        config.recipe.audio_norm = heard.audio_norm;
+        config.recipe.audio_mean = heard.audio_mean.clone();
+        config.recipe.audio_std = heard.audio_std.clone();
+        Ok(())
+    }
+
+    /// Its weights on `device`.
+    pub fn load(&self, device: &Device) -> Result<Gpt> {
+        match self.checkpoint.load_family(device)? {
+            FamilyModel::Gpt(m) => Ok(m),
+            _ => Err(self.checkpoint.not_family("a music-to-dance GPT")),
+        }
     }
 }
 

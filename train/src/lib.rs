@@ -14,6 +14,7 @@ pub mod genre_clf;
 pub mod gpt;
 pub mod inbetween;
 pub mod inspect;
+pub mod keyframe;
 pub mod logging;
 pub mod metrics_log;
 pub mod paper_table;

@@ -20,6 +20,11 @@ pub fn train(config: RunConfig, opts: &TrainOptions) -> Result<TrainOutcome> {
         ModelSpec::GptGenre(..) => {
             train_family(&mut crate::genre::GenreFamily::default(), config, opts)
         }
+        ModelSpec::GptKeyframe(..) => train_family(
+            &mut crate::keyframe::KeyframeFamily::default(),
+            config,
+            opts,
+        ),
         ModelSpec::Gpt(_) => train_family(&mut crate::gpt::GptFamily::default(), config, opts),
         ModelSpec::Vqvae(_) => train_family(&mut crate::vqvae::VqFamily::default(), config, opts),
     }

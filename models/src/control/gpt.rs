@@ -84,11 +84,22 @@ impl Block {
 
     /// The self-attention half: x + Attn(LN x).
     pub fn attend(&self, x: Tensor<3>, bias: Tensor<4>) -> Tensor<3> {
+        self.attend_through(x, bias, [&self.query, &self.key, &self.value, &self.proj])
+    }
+
+    /// [`Block::attend`] with other q, k, v and output projections (the keyframe module's, §13.3.5
+    /// `mask`), this block's LN and dropout.
+    pub fn attend_through(
+        &self,
+        x: Tensor<3>,
+        bias: Tensor<4>,
+        [query, key, value, proj]: [&Linear; 4],
+    ) -> Tensor<3> {
         let h = self.ln1.forward(x.clone());
         let (q, k, v) = (
-            split_heads(self.query.forward(h.clone()), self.heads),
-            split_heads(self.key.forward(h.clone()), self.heads),
-            split_heads(self.value.forward(h), self.heads),
+            split_heads(query.forward(h.clone()), self.heads),
+            split_heads(key.forward(h.clone()), self.heads),
+            split_heads(value.forward(h), self.heads),
         );
         let d_h = q.dims()[3];
         let scores = q
@@ -96,7 +107,7 @@ impl Block {
             .matmul(k.swap_dims(2, 3))
             + bias;
         let att = self.dropout.forward(softmax(scores, 3)).matmul(v);
-        x + self.dropout.forward(self.proj.forward(merge_heads(att)))
+        x + self.dropout.forward(proj.forward(merge_heads(att)))
     }
 
     /// The MLP half: x + MLP(LN x).
@@ -152,6 +163,11 @@ impl MBase {
             dropout: DropoutConfig::new(c.dropout).init(),
             two_stream: c.m_layout == MLayout::TwoStream,
         }
+    }
+
+    /// Whether the music and the motion tokens are two streams (`m_layout = two_stream`).
+    pub fn two_stream(&self) -> bool {
+        self.two_stream
     }
 
     /// The music MLP: Linear(280 → D) → GELU → Linear(D → D).

@@ -1,17 +1,23 @@
 //! Keyframe control (SPEC §13.6; seed 001): a keyframe pose becomes a token, overwrites the generated token
 //! at its position, and the k tokens on each side are predicted again, in one pass per keyframe, by a model
 //! that sees the future (mask attention) with the re-predicted positions masked. This file holds the index
-//! arithmetic, the static clip a pose is tokenised from, and the re-prediction loop over any predictor; the
-//! mask-attention weights and their training (stage 3b) are not here yet.
+//! arithmetic, the static clip a pose is tokenised from, the re-prediction loop over any predictor, and the
+//! keyframe module: per-layer copies of the attention projections of every M-Base and head block (§13.3.5
+//! `mask`, `keyframe.weights = attn_only`) and the M-Base's Mask row, trained in stage 3b over a frozen GPT.
 
+use burn::module::{Module, Param};
+use burn::nn::Linear;
+use burn::tensor::{Device, Int, Tensor, TensorData};
+use qean_config::gpt::GptConfig;
 use qean_motion::pos72::{joints_to_pos72, Pos72Options};
+
+use crate::control::gpt::{Block, Gpt};
 
 /// Tokens re-predicted on each side of a keyframe (k = 6 [READ]).
 pub const RADIUS: usize = 6;
 /// Tokens per re-prediction window.
 pub const WINDOW: usize = 32;
-/// Frames of the static clip a keyframe pose is repeated over (8 d), and the token taken from its codes.
-pub const STATIC_CLIP_FRAMES: usize = 64;
+/// The token taken from the codes of a static clip of 8 tokens (8 d frames; 64 at d = 8).
 pub const STATIC_CLIP_TOKEN: usize = 4;
 
 /// A keyframe on the token grid.
@@ -70,13 +76,11 @@ pub fn kf_window(p: usize, n: usize, window: usize) -> usize {
     p.saturating_sub(window / 2).min(n.saturating_sub(window))
 }
 
-/// The static clip of one pose (24 joints): the pose held for [`STATIC_CLIP_FRAMES`] frames as pos72 rows
-/// (zero root velocity), the VQ-VAE's input for the keyframe's token ([`STATIC_CLIP_TOKEN`] of its codes).
-pub fn static_clip(pose: &[[f64; 3]], opts: &Pos72Options) -> Vec<f64> {
+/// The static clip of one pose (24 joints): the pose held for `frames` frames (8 d) as pos72 rows (zero
+/// root velocity), the VQ-VAE's input for the keyframe's token ([`STATIC_CLIP_TOKEN`] of its codes).
+pub fn static_clip(pose: &[[f64; 3]], frames: usize, opts: &Pos72Options) -> Vec<f64> {
     assert_eq!(pose.len(), 24, "a pose is 24 joints");
-    let joints: Vec<[f64; 3]> = (0..STATIC_CLIP_FRAMES)
-        .flat_map(|_| pose.iter().copied())
-        .collect();
+    let joints: Vec<[f64; 3]> = (0..frames).flat_map(|_| pose.iter().copied()).collect();
     joints_to_pos72(&joints, opts)
 }
 
@@ -122,6 +126,202 @@ pub fn refill(
         }
     }
     Ok(out)
+}
+
+/// A fresh parameter holding `p`'s values (a new id: it trains while the original stays frozen).
+fn copy_param<const D: usize>(p: &Param<Tensor<D>>) -> Param<Tensor<D>> {
+    leaf(p.val())
+}
+
+/// A new leaf parameter holding `t`'s values (through the host: no autodiff history).
+fn leaf<const D: usize>(t: Tensor<D>) -> Param<Tensor<D>> {
+    let device = t.device();
+    Param::from_tensor(Tensor::from_data(t.into_data(), &device))
+}
+
+fn copy_linear(l: &Linear) -> Linear {
+    Linear {
+        weight: copy_param(&l.weight),
+        bias: l.bias.as_ref().map(copy_param),
+    }
+}
+
+/// One block's q, k, v and output projections for mask attention.
+#[derive(Module, Debug)]
+pub struct AttnCopy {
+    pub query: Linear,
+    pub key: Linear,
+    pub value: Linear,
+    pub proj: Linear,
+}
+
+impl AttnCopy {
+    /// A copy of `b`'s projections (§13.6: "initialised from the causal weights").
+    pub fn of(b: &Block) -> AttnCopy {
+        AttnCopy {
+            query: copy_linear(&b.query),
+            key: copy_linear(&b.key),
+            value: copy_linear(&b.value),
+            proj: copy_linear(&b.proj),
+        }
+    }
+
+    /// q, k, v and output, in the order [`Block::attend_through`] takes them.
+    pub fn linears(&self) -> [&Linear; 4] {
+        [&self.query, &self.key, &self.value, &self.proj]
+    }
+}
+
+/// The keyframe module (stage 3b's trainable part): an [`AttnCopy`] per M-Base block and per head block,
+/// and the Mask row of the M-Base's token table ([D]).
+#[derive(Module, Debug)]
+pub struct KeyframeModule {
+    pub m_attn: Vec<AttnCopy>,
+    pub head_attn: Vec<AttnCopy>,
+    pub mask_row: Param<Tensor<1>>,
+}
+
+impl KeyframeModule {
+    /// Copies of `gpt`'s attention projections and Mask row.
+    pub fn of(gpt: &Gpt) -> KeyframeModule {
+        let table = gpt.m_base.tokens.weight.val();
+        let [rows, d] = table.dims();
+        KeyframeModule {
+            m_attn: gpt.m_base.blocks.iter().map(AttnCopy::of).collect(),
+            head_attn: gpt.head.blocks.iter().map(AttnCopy::of).collect(),
+            mask_row: leaf(table.narrow(0, rows - 1, 1).reshape([d])),
+        }
+    }
+}
+
+/// The keyframe stage's model: the frozen GPT and the keyframe module (one checkpoint holds both).
+#[derive(Module, Debug)]
+pub struct KeyframeGpt {
+    pub gpt: Gpt,
+    pub keyframe: KeyframeModule,
+}
+
+impl KeyframeGpt {
+    /// A fresh GPT and a module copied from it (training replaces the GPT by the frozen one and copies
+    /// again: see `train::keyframe`).
+    pub fn new(g: &GptConfig, device: &Device) -> KeyframeGpt {
+        let gpt = Gpt::new(g, device);
+        let keyframe = KeyframeModule::of(&gpt);
+        KeyframeGpt { gpt, keyframe }
+    }
+}
+
+/// SPEC §13.9's closed form of the attention copies: (L_b + L_h)·4(D² + D) (the Mask row adds D).
+pub fn keyframe_params(g: &GptConfig) -> usize {
+    (g.base_layers + g.head_layers) * 4 * (g.hidden * g.hidden + g.hidden)
+}
+
+/// Mask-mode logits [B, n, K+1] (§13.6 "Inference" 3, "Training"): position j of stream t holds c_{s+j}
+/// unshifted, or the Mask token (K + 1, the module's Mask row); stream m as in §13.3.2; every position
+/// sees every other, through the module's attention projections and the GPT's LNs and MLPs.
+pub fn mask_logits(
+    gpt: &Gpt,
+    module: &KeyframeModule,
+    tokens: Tensor<2, Int>,
+    music: Tensor<3>,
+) -> Tensor<3> {
+    let mb = &gpt.m_base;
+    let [b, n] = tokens.dims();
+    let device = music.device();
+    let [rows, d] = mb.tokens.weight.dims();
+    let is_mask = tokens.clone().equal_elem((rows - 1) as i64);
+    let masked = is_mask.clone().float().reshape([b, n, 1]);
+    let safe = tokens.mask_fill(is_mask, 0);
+    let t = mb.tokens.forward(safe) * (masked.clone().neg() + 1.0)
+        + masked * module.mask_row.val().reshape([1, 1, d])
+        + mb.pos_tokens.val().narrow(0, 0, n).unsqueeze::<3>();
+    let m = mb.music(music) + mb.pos_music.val().narrow(0, 0, n).unsqueeze::<3>();
+    let mut x = if mb.two_stream() {
+        Tensor::cat(vec![m, t], 1)
+    } else {
+        m + t
+    };
+    let len = x.dims()[1];
+    let everything = Tensor::<4>::zeros([1, 1, len, len], &device);
+    x = mb.dropout.forward(x);
+    for (block, copy) in mb.blocks.iter().zip(&module.m_attn) {
+        x = block.attend_through(x, everything.clone(), copy.linears());
+        x = block.feed_forward(x);
+    }
+    if mb.two_stream() {
+        x = x.narrow(1, n, n);
+    }
+    let everything = Tensor::<4>::zeros([1, 1, n, n], &device);
+    for (block, copy) in gpt.head.blocks.iter().zip(&module.head_attn) {
+        x = block.attend_through(x, everything.clone(), copy.linears());
+        x = block.feed_forward(x);
+    }
+    gpt.head.logits.forward(gpt.head.ln.forward(x))
+}
+
+/// One window's picks (§13.6 "Inference" 3–4): `inputs` with None at the masked positions, `music` its
+/// music tokens [1, n, 280]; the argmax over the K codes at every position (`one_shot`), or over `passes`
+/// passes that each fix the most confident of the positions still masked, a linear share per pass
+/// (`iterative`, MaskGIT-style). Unmasked positions give their input back.
+pub fn predict_window(
+    gpt: &Gpt,
+    module: &KeyframeModule,
+    inputs: &[Option<usize>],
+    music: Tensor<3>,
+    passes: usize,
+) -> Vec<usize> {
+    let device = music.device();
+    let [rows, _] = gpt.m_base.tokens.weight.dims();
+    let (codes, mask) = (rows - 2, rows - 1);
+    let n = inputs.len();
+    let mut current: Vec<Option<usize>> = inputs.to_vec();
+    let total = current.iter().filter(|x| x.is_none()).count();
+    for pass in 0..passes.max(1) {
+        let ids: Vec<i64> = current
+            .iter()
+            .map(|x| x.map_or(mask as i64, |t| t as i64))
+            .collect();
+        let ids = Tensor::<2, Int>::from_data(TensorData::new(ids, [1, n]), &device);
+        let logits: Vec<f32> = mask_logits(gpt, module, ids, music.clone())
+            .into_data()
+            .convert::<f32>()
+            .try_to_vec()
+            .expect("f32");
+        let k1 = logits.len() / n;
+        // (confidence, position, code) of every position still masked: the softmax's top code among K.
+        let mut open: Vec<(f32, usize, usize)> = (0..n)
+            .filter(|&j| current[j].is_none())
+            .map(|j| {
+                let row = &logits[j * k1..j * k1 + codes];
+                let (best, top) =
+                    row.iter()
+                        .enumerate()
+                        .fold(
+                            (0, f32::NEG_INFINITY),
+                            |a, (c, &v)| if v > a.1 { (c, v) } else { a },
+                        );
+                let z: f32 = row.iter().map(|&v| (v - top).exp()).sum();
+                (1.0 / z, j, best)
+            })
+            .collect();
+        let last = pass + 1 >= passes.max(1);
+        let keep_open = if last {
+            0
+        } else {
+            total - (total * (pass + 1)).div_ceil(passes)
+        };
+        open.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        for &(_, j, code) in open.iter().take(open.len().saturating_sub(keep_open)) {
+            current[j] = Some(code);
+        }
+        if current.iter().all(|x| x.is_some()) {
+            break;
+        }
+    }
+    current
+        .into_iter()
+        .map(|x| x.expect("every position filled"))
+        .collect()
 }
 
 #[cfg(test)]
@@ -180,8 +380,8 @@ mod tests {
         let pose: Vec<[f64; 3]> = (0..24)
             .map(|j| [0.1 * j as f64, 0.9, -0.02 * j as f64])
             .collect();
-        let clip = static_clip(&pose, &Pos72Options::default());
-        assert_eq!(clip.len(), STATIC_CLIP_FRAMES * 72);
+        let clip = static_clip(&pose, 64, &Pos72Options::default());
+        assert_eq!(clip.len(), 64 * 72);
         for row in clip.chunks(72) {
             assert_eq!(&row[..3], &[0.0; 3], "root velocity");
             assert_eq!(row, &clip[..72], "every frame the same");
@@ -225,5 +425,93 @@ mod tests {
         })
         .unwrap();
         assert_eq!(seen, vec![(9, masked.len()), (15, masked.len())]);
+    }
+
+    fn window_inputs(
+        g: &GptConfig,
+        device: &Device,
+        change: Option<(usize, i64)>,
+    ) -> (Tensor<2, Int>, Tensor<3>) {
+        let n = g.window;
+        let mut ids: Vec<i64> = (0..n as i64).map(|j| (j * 5) % g.codes as i64).collect();
+        ids[7] = g.codes as i64 + 1;
+        if let Some((j, t)) = change {
+            ids[j] = t;
+        }
+        let music: Vec<f32> = (0..n * 280)
+            .map(|i| ((i * 37) % 101) as f32 / 50.0 - 1.0)
+            .collect();
+        (
+            Tensor::from_data(TensorData::new(ids, [1, n]), device),
+            Tensor::from_data(TensorData::new(music, [1, n, 280]), device),
+        )
+    }
+
+    /// SPEC §13.3.5 `mask` and §13.9: the copies start as the causal projections under new parameter ids
+    /// ((L_b + L_h)·4(D² + D), plus the Mask row), and every position sees every other: a later token
+    /// changes an earlier position's logits.
+    #[test]
+    fn mask_attention_sees_the_future_through_copies_of_the_causal_weights() {
+        let device = Device::flex();
+        let g = GptConfig {
+            dropout: 0.0,
+            ..GptConfig::tiny()
+        };
+        let model = KeyframeGpt::new(&g, &device);
+        assert_eq!(model.keyframe.num_params(), keyframe_params(&g) + g.hidden);
+        assert_eq!(keyframe_params(&GptConfig::tiny()), 66_560);
+        assert_eq!(keyframe_params(&GptConfig::paper()), 28_348_416);
+        let block = &model.gpt.m_base.blocks[1];
+        let copy = &model.keyframe.m_attn[1];
+        assert_ne!(block.query.weight.id, copy.query.weight.id);
+        let x = Tensor::<3>::from_data(
+            TensorData::new(
+                (0..5 * 64)
+                    .map(|i| (i % 13) as f32 / 7.0)
+                    .collect::<Vec<_>>(),
+                [1, 5, 64],
+            ),
+            &device,
+        );
+        let bias = Tensor::<4>::zeros([1, 1, 5, 5], &device);
+        let same: f32 = (block.attend(x.clone(), bias.clone())
+            - block.attend_through(x, bias, copy.linears()))
+        .abs()
+        .max()
+        .into_scalar();
+        assert_eq!(same, 0.0);
+        let logits = |change| {
+            let (t, m) = window_inputs(&g, &device, change);
+            mask_logits(&model.gpt, &model.keyframe, t, m)
+        };
+        let (a, b) = (logits(None), logits(Some((12, 3))));
+        assert_eq!(a.dims(), [1, g.window, g.codes + 1]);
+        let earlier: f32 = (a.narrow(1, 2, 1) - b.narrow(1, 2, 1))
+            .abs()
+            .max()
+            .into_scalar();
+        assert!(earlier > 0.0, "position 2 does not see token 12");
+    }
+
+    /// A window's picks keep every visible token, fill every masked one with a code (never End), and the
+    /// iterative decoding fills them all too.
+    #[test]
+    fn window_predictions_fill_the_masked_positions_only() {
+        let device = Device::flex();
+        let g = GptConfig::tiny();
+        let model = KeyframeGpt::new(&g, &device);
+        let inputs: Vec<Option<usize>> = (0..g.window)
+            .map(|j| (!(4..=9).contains(&j) || j == 6).then_some(j * 3))
+            .collect();
+        let music = window_inputs(&g, &device, None).1;
+        for passes in [1, 4] {
+            let picks = predict_window(&model.gpt, &model.keyframe, &inputs, music.clone(), passes);
+            for (j, (pick, input)) in picks.iter().zip(&inputs).enumerate() {
+                match input {
+                    Some(t) => assert_eq!(pick, t, "visible position {j}"),
+                    None => assert!(*pick < g.codes, "position {j}: {pick}"),
+                }
+            }
+        }
     }
 }

@@ -610,6 +610,7 @@ fn dance(
             sample_seed: 0,
             genre,
             text: Vec::new(),
+            keyframes: Vec::new(),
         },
         &dir,
         |done, total| {
