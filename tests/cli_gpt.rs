@@ -832,7 +832,13 @@ fn keyframe_stage_trains_resumes_exactly_and_edits_around_the_keyframe() {
     let plain = dir.path().join("kf_plain");
     run_ok(&mut sample(&straight, &plain, &[]));
     let keyed = dir.path().join("kf_keyed");
-    run_ok(&mut sample(&straight, &keyed, &key));
+    run_ok(sample(&straight, &keyed, &key).arg("--view"));
+    // The page marks the keyframe on the dance's timeline.
+    let page = std::fs::read_to_string(keyed.join("Kevin_MacLeod_-_Vibe_Ace.view.html")).unwrap();
+    assert!(
+        page.contains(r#""marks":[{"from":400,"label":"keyframe","to":400}]"#),
+        "no keyframe mark in the page"
+    );
     let (a, b) = (joints(&plain), joints(&keyed));
     assert_eq!(a.len(), b.len());
     // Before the masked span (token 44 = frame 352) less the decoder's reach, the dance is the same.
@@ -925,6 +931,16 @@ fn keyframe_stage_trains_resumes_exactly_and_edits_around_the_keyframe() {
         let e = report[set]["kf_mpjpe"].as_f64().unwrap();
         assert!(e.is_finite() && e > 0.0, "{set}: {report}");
     }
+    // `keyframe.tokenize = "paste"`: the pose written into the decoded dance and encoded again.
+    let paste = dir.path().join("kf_paste");
+    let mut sets = kf_sets(1, &gpt);
+    sets.push("keyframe.tokenize=\"paste\"".into());
+    train(cfg, &data, &paste, &sets, false);
+    run_ok(&mut sample(
+        &paste,
+        &dir.path().join("kf_paste_dance"),
+        &key,
+    ));
     let no_gpt = dir.path().join("kf_none");
     let mut c = train_command(cfg, &data, &no_gpt, &["train.steps=1".to_string()], false);
     assert_clean_failure(&mut c, "keyframe.gpt_run is not set");

@@ -98,6 +98,36 @@ impl FrozenVq {
     }
 }
 
+impl FrozenVq {
+    /// The `paste` token of a pose at token `p` of `tokens` (SPEC §13.6 `keyframe.tokenize = "paste"`): the
+    /// 8 tokens around p decoded, the pose's root-relative joints written into token p's frames (the
+    /// decoded root channels kept), the frames encoded again, and token p of the result.
+    pub fn paste_token(&self, tokens: &[usize], p: usize, pose: &[[f64; 3]]) -> Result<usize> {
+        use qean_models::control::keyframe::{static_clip, STATIC_CLIP_TOKEN};
+        let c = self.checkpoint.config.vq_table();
+        let d = c.rate();
+        let span = 2 * STATIC_CLIP_TOKEN;
+        let hi = (p.saturating_sub(STATIC_CLIP_TOKEN) + span).min(tokens.len());
+        let lo = hi.saturating_sub(span);
+        let mut rows = VqVae::host_rows(&self.model.decode_tokens(&tokens[lo..hi], 1, hi - lo));
+        let mut held: Vec<f32> = static_clip(pose, d, &pos72_options(c))
+            .iter()
+            .map(|&v| v as f32)
+            .collect();
+        normalise(&mut held, c);
+        for (u, frame) in held.chunks_exact(POS72).enumerate() {
+            let at = ((p - lo) * d + u) * POS72;
+            rows[at + 3..at + POS72].copy_from_slice(&frame[3..]);
+        }
+        let x = Tensor::<3>::from_data(
+            TensorData::new(rows, [1, (hi - lo) * d, POS72]),
+            &Device::flex(),
+        );
+        let codes = self.model.tokens(x).map_err(Error::msg)?;
+        Ok(codes[p - lo])
+    }
+}
+
 /// Music tokens a_i[35u + c] = A[rate·i + u, c] of the first `n` tokens of a feature matrix (frames × 35).
 pub fn music_tokens(features: &[f32], n: usize, rate: usize) -> Vec<f32> {
     features[..n * rate * FEATURES].to_vec()

@@ -17,6 +17,18 @@ pub enum KfTrainMask {
     Mixed,
 }
 
+/// How a keyframe pose becomes a token.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum KfTokenize {
+    /// The pose held still over 8 tokens' frames, encoded; token 4 (`static_clip`).
+    #[default]
+    StaticClip,
+    /// The pose written into token p's frames of the decoded dance, tokens p − 4 .. p + 4 encoded again;
+    /// token p (`paste`).
+    Paste,
+}
+
 /// How the masked positions of a window are filled at sampling.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -36,6 +48,8 @@ pub struct KeyframeConfig {
     /// The trained music-to-dance GPT run (its newest checkpoint) this stage edits;
     /// `--set keyframe.gpt_run=DIR` overrides it.
     pub gpt_run: Option<std::path::PathBuf>,
+    /// How a keyframe pose becomes its token at sampling (training's centres take static-clip tokens).
+    pub tokenize: KfTokenize,
     /// Tokens re-predicted on each side of a keyframe (k = 6 [READ]).
     pub radius: usize,
     /// Training windows hold 1 to `max_centres` keyframe centres, uniformly many.
@@ -47,18 +61,23 @@ pub struct KeyframeConfig {
     pub decode: KfDecode,
     /// Passes of `decode = "iterative"`.
     pub passes: usize,
+    /// Ours: frames on each side of a keyframe over which the decoded dance is warped to the keyframe's
+    /// root-relative pose (a raised-cosine displacement map; 0 = off, the paper's tokens alone).
+    pub warp_frames: usize,
 }
 
 impl Default for KeyframeConfig {
     fn default() -> Self {
         KeyframeConfig {
             gpt_run: None,
+            tokenize: KfTokenize::StaticClip,
             radius: 6,
             max_centres: 2,
             train_mask: KfTrainMask::Centres,
             static_prob: 0.5,
             decode: KfDecode::OneShot,
             passes: 4,
+            warp_frames: 0,
         }
     }
 }

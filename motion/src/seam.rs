@@ -104,6 +104,32 @@ pub fn ease_joints(joints: &mut [[f64; 3]], last: usize, seed_last: &[[f64; 3]],
     }
 }
 
+/// Motion warping to a keyframe pose (Witkin & Popović 1995, a displacement map): the gap between the
+/// pose's root-relative joints and the dance's at frame `at` is added to the frames `at ± radius` with a
+/// raised-cosine weight (1 at `at`, 0 at the span's ends), so the dance passes through the pose at `at`
+/// and moves as before elsewhere. The root's path is left alone (a keyframe does not place the root).
+pub fn warp_to_pose(joints: &mut [[f64; 3]], at: usize, pose: &[[f64; 3]], radius: usize) {
+    let frames = joints.len() / 24;
+    if at >= frames || pose.len() != 24 {
+        return;
+    }
+    let frame = &joints[at * 24..(at + 1) * 24];
+    let gap: Vec<[f64; 3]> = (0..24)
+        .map(|j| std::array::from_fn(|a| (pose[j][a] - pose[0][a]) - (frame[j][a] - frame[0][a])))
+        .collect();
+    let lo = at.saturating_sub(radius);
+    let hi = (at + radius).min(frames - 1);
+    for t in lo..=hi {
+        let u = t.abs_diff(at) as f64 / (radius + 1) as f64;
+        let w = 0.5 * (1.0 + (std::f64::consts::PI * u).cos());
+        for (p, g) in joints[t * 24..(t + 1) * 24].iter_mut().zip(&gap) {
+            for a in 0..3 {
+                p[a] += w * g[a];
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -192,5 +218,41 @@ mod tests {
         let mut off = decoded.clone();
         ease_joints(&mut off, 2, &seed_last, 0);
         assert_eq!(off, decoded);
+    }
+
+    /// The warped dance passes through the pose (root-relative) at the keyframe, keeps its root, and is
+    /// unchanged outside the span; the weight rises smoothly.
+    #[test]
+    fn warping_reaches_the_pose_at_the_keyframe_only() {
+        let frames = 60;
+        let mut joints: Vec<[f64; 3]> = (0..frames * 24)
+            .map(|i| {
+                let (t, j) = ((i / 24) as f64, (i % 24) as f64);
+                [0.01 * t + 0.05 * j, 0.9 + 0.02 * (0.3 * t).sin() * j, 0.0]
+            })
+            .collect();
+        let before = joints.clone();
+        let pose: Vec<[f64; 3]> = (0..24)
+            .map(|j| [2.0 + 0.04 * j as f64, 0.5, 0.1 * j as f64])
+            .collect();
+        warp_to_pose(&mut joints, 30, &pose, 10);
+        for j in 0..24 {
+            for a in 0..3 {
+                let got = joints[30 * 24 + j][a] - joints[30 * 24][a];
+                let want = pose[j][a] - pose[0][a];
+                assert!((got - want).abs() < 1e-12, "joint {j} axis {a}");
+            }
+        }
+        for t in (0..20).chain(41..frames) {
+            assert_eq!(
+                joints[t * 24..(t + 1) * 24],
+                before[t * 24..(t + 1) * 24],
+                "frame {t}"
+            );
+        }
+        // The root keeps its path (its gap is 0 by construction).
+        assert_eq!(joints[30 * 24], before[30 * 24]);
+        let step = |t: usize| (joints[t * 24 + 5][2] - before[t * 24 + 5][2]).abs();
+        assert!(step(21) < step(25) && step(25) < step(29), "smooth rise");
     }
 }

@@ -63,6 +63,7 @@ impl SamplingOverrides {
             seam_frames: self.seam_frames.unwrap_or(run.seam_frames),
             floor_window: self.floor_window.unwrap_or(run.floor_window),
             slide_window: self.slide_window.unwrap_or(run.slide_window),
+            warp_frames: run.warp_frames,
         }
     }
 

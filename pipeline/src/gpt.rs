@@ -474,6 +474,9 @@ pub struct Decoding {
     pub floor_window: usize,
     /// Window of the feet's glide removal (`gpt.slide_window`; 0 = off).
     pub slide_window: usize,
+    /// Frames on each side of a keyframe over which the decoded dance is warped to its pose
+    /// (`keyframe.warp_frames`; 0 = off, the paper's tokens alone).
+    pub warp_frames: usize,
 }
 
 impl Decoding {
@@ -484,6 +487,7 @@ impl Decoding {
             seam_frames: config.recipe.seam_frames,
             floor_window: g.floor_window,
             slide_window: g.slide_window,
+            warp_frames: config.keyframe_table().warp_frames,
         }
     }
 }
@@ -491,8 +495,14 @@ impl Decoding {
 /// The dance of `tokens`: the seed motion as given, then the decoded frames after it (every token decoded,
 /// the root integrated and continued from the seed's last frame, the body eased out of the seed's last pose
 /// over `seam_frames` frames, its lowest point pinned to the seed's floor over `floor_window` frames and its
-/// feet's glide taken away over `slide_window` frames), rotations by IK.
-pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize], d: Decoding) -> Motion {
+/// feet's glide taken away over `slide_window` frames, warped to each keyframe's pose over `warp_frames`
+/// frames on each side), rotations by IK.
+pub fn decode_dance(
+    vq: &FrozenVq,
+    seed: &Motion,
+    (tokens, keys): (&[usize], &[KeyframeRequest]),
+    d: Decoding,
+) -> Motion {
     let c = vq.checkpoint.config.vq_table();
     let n = tokens.len();
     let mut rows = VqVae::host_rows(&vq.model.decode_tokens(tokens, 1, n));
@@ -518,6 +528,11 @@ pub fn decode_dance(vq: &FrozenVq, seed: &Motion, tokens: &[usize], d: Decoding)
     let floor = qean_motion::floor::floor_of(&seed_joints);
     qean_motion::floor::pin_to_floor(&mut joints, seed.frames, floor, d.floor_window);
     qean_motion::floor::stop_sliding(&mut joints, seed.frames, floor, d.slide_window);
+    if d.warp_frames > 0 {
+        for k in keys {
+            qean_motion::seam::warp_to_pose(&mut joints, k.frame, &k.pose, d.warp_frames);
+        }
+    }
     let tail = motion_from_joints(
         &joints[seed.frames * 24..],
         Default::default(),
@@ -648,7 +663,7 @@ impl GptRun {
                 controls.keyframes,
             )?;
         }
-        let motion = decode_dance(&self.vq, seed, &tokens, self.decoding);
+        let motion = decode_dance(&self.vq, seed, (&tokens, controls.keyframes), self.decoding);
         Ok(Some(
             motion.slice(0, (seed.frames + frames).min(motion.frames)),
         ))

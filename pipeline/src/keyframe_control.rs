@@ -8,7 +8,7 @@ use std::path::Path;
 
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_config::gpt::GptConfig;
-use qean_config::keyframe::{KeyframeConfig, KfDecode};
+use qean_config::keyframe::{KeyframeConfig, KfDecode, KfTokenize};
 use qean_io::error::{Error, Result};
 use qean_models::control::gpt::{music_token_dim, Gpt};
 use qean_models::control::keyframe::{key_tokens, predict_window, refill, KeyframeModule};
@@ -167,7 +167,13 @@ pub fn apply_keyframes(
         )));
     }
     let poses: Vec<&[[f64; 3]]> = keys.iter().map(|k| k.pose.as_slice()).collect();
-    let codes = vq.static_tokens(&poses)?;
+    let codes = match c.tokenize {
+        KfTokenize::StaticClip => vq.static_tokens(&poses)?,
+        KfTokenize::Paste => keys
+            .iter()
+            .map(|k| vq.paste_token(tokens, k.frame / g.rate, &k.pose))
+            .collect::<Result<Vec<_>>>()?,
+    };
     let pairs: Vec<(usize, usize)> = keys.iter().map(|k| k.frame).zip(codes).collect();
     let passes = match c.decode {
         KfDecode::OneShot => 1,

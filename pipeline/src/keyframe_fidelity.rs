@@ -53,9 +53,13 @@ pub struct FidelityReport {
     pub frames: usize,
     pub dances: usize,
     pub keyframes: usize,
-    /// With the keyframes, and the same dances without them.
+    /// With the keyframes as the run decodes them, the same with the tokens alone (the paper's; only when
+    /// the run warps to the keyframes, `keyframe.warp_frames` > 0), and the same dances without keyframes.
     pub edited: SetFidelity,
+    pub tokens_only: Option<SetFidelity>,
     pub plain: SetFidelity,
+    /// `keyframe.warp_frames` of the run.
+    pub warp_frames: usize,
 }
 
 /// What one dance contributed: per keyframe (error, minimum error), its seam ratio and joints.
@@ -87,7 +91,8 @@ pub fn keyframe_fidelity(req: &RunEvalRequest) -> Result<(FidelityReport, String
     let dim = qean_aistpp::windows::AUDIO_DIM;
     let pb =
         qean_checkpoint::progress::bar(requests.len() as u64, "keyframe fidelity", "sequences");
-    let (mut edited, mut plain) = (Vec::new(), Vec::new());
+    let warp = run.decoding.warp_frames;
+    let (mut edited, mut tokens_only, mut plain) = (Vec::new(), Vec::new(), Vec::new());
     for ((r, (motion, _, name)), &start) in requests.iter().zip(&pairs).zip(&starts) {
         let truth = Motion::read_pkl(&ds.motion_path(motion))?;
         let keys = ground_truth_keys(
@@ -111,7 +116,16 @@ pub fn keyframe_fidelity(req: &RunEvalRequest) -> Result<(FidelityReport, String
                 (from - seed_frames)..((p + k.radius + 1) * g.rate - seed_frames)
             })
             .collect();
-        for (out, keyframes) in [(&mut edited, keys.as_slice()), (&mut plain, &[][..])] {
+        // As the run decodes, without keyframes, and (when it warps) with the tokens alone.
+        let mut variants = vec![
+            (&mut edited, keys.as_slice(), warp),
+            (&mut plain, &[][..], warp),
+        ];
+        if warp > 0 {
+            variants.push((&mut tokens_only, keys.as_slice(), 0));
+        }
+        for (out, keyframes, warp_frames) in variants {
+            run.decoding.warp_frames = warp_frames;
             let controls = Controls {
                 keyframes,
                 ..Default::default()
@@ -140,13 +154,25 @@ pub fn keyframe_fidelity(req: &RunEvalRequest) -> Result<(FidelityReport, String
         }
     }
     pb.finish_and_clear();
+    finish(req, &ck, [edited, tokens_only, plain], warp, &ds)
+}
+
+/// The report of the three sets (edited as the run decodes, tokens alone, unedited), written beside the
+/// run's evaluations.
+fn finish(
+    req: &RunEvalRequest,
+    ck: &qean_checkpoint::Checkpoint,
+    [edited, tokens_only, plain]: [Vec<Scored>; 3],
+    warp: usize,
+    ds: &Dataset,
+) -> Result<(FidelityReport, String)> {
     if edited.is_empty() {
         return Err(Error::Invalid(format!(
             "no test or val sequence is long enough for a keyframe at generated frame {} (--max-frames {})",
             KEYFRAME_OFFSETS[0], req.max_frames
         )));
     }
-    let reference = crate::evaluate::reference_set(&ds, req.root, req.splits())?;
+    let reference = crate::evaluate::reference_set(ds, req.root, req.splits())?;
     let report = FidelityReport {
         checkpoint: ck.dir.clone(),
         step: ck.state.step,
@@ -154,7 +180,12 @@ pub fn keyframe_fidelity(req: &RunEvalRequest) -> Result<(FidelityReport, String
         dances: edited.len(),
         keyframes: edited.iter().map(|s| s.errors.len()).sum(),
         edited: summarise(&edited, &reference, req)?,
+        tokens_only: match warp {
+            0 => None,
+            _ => Some(summarise(&tokens_only, &reference, req)?),
+        },
         plain: summarise(&plain, &reference, req)?,
+        warp_frames: warp,
     };
     let md = markdown(&report);
     let out_dir = crate::evaluate::write_eval_files(req, report.step, "keyframe", &report, &md)?;
@@ -272,7 +303,10 @@ fn markdown(r: &FidelityReport) -> String {
         r.dances,
         r.frames,
         r.keyframes,
-        row("with keyframes", &r.edited),
+        row(&match r.warp_frames {
+            0 => "with keyframes (tokens)".to_string(),
+            w => format!("with keyframes (tokens, warped over ± {w} frames)"),
+        }, &r.edited) + &r.tokens_only.as_ref().map(|t| row("with keyframes (tokens alone, the paper's)", t)).unwrap_or_default(),
         row("without (same dances, no edit)", &r.plain),
         ratio
     )

@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+pub use qean_render::view::ViewMark;
 use qean_render::view::{ViewAudio, ViewDance, ViewMusic, ViewOptions, EMBED_LIMIT};
 
 use crate::{Error, Result};
@@ -14,6 +15,24 @@ pub struct PageDance {
     pub label: String,
     pub joints: Vec<[f64; 3]>,
     pub seed_frames: usize,
+    /// Keyframes and text intervals to mark on its timeline.
+    pub marks: Vec<ViewMark>,
+}
+
+/// The marks of a dance sampled with `opts`: each keyframe at its frame, each text interval over its
+/// frames (60 fps).
+pub fn control_marks(opts: &crate::generate::GenerateOptions) -> Vec<ViewMark> {
+    let keys = opts.keyframes.iter().map(|k| ViewMark {
+        from: k.frame,
+        to: k.frame,
+        label: "keyframe".into(),
+    });
+    let texts = opts.text.iter().map(|t| ViewMark {
+        from: (t.from_s * 60.0).round() as usize,
+        to: (t.to_s * 60.0).round() as usize,
+        label: format!("text {}", t.embedding),
+    });
+    keys.chain(texts).collect()
 }
 
 /// The music of a page: a song file, embedded or linked (relative to the page).
@@ -41,6 +60,7 @@ pub fn write_page(
             ),
             joints: d.joints.clone(),
             seed_frames: d.seed_frames,
+            marks: d.marks.clone(),
         })
         .collect();
     let music = music.map(|m| page_music(out, m)).transpose()?;

@@ -25,6 +25,16 @@ pub struct ViewDance {
     pub motion_beats: Vec<usize>,
     /// Leading frames that are the seed (shaded on the timeline).
     pub seed_frames: usize,
+    /// What the dance was asked to follow, marked on its timeline row: keyframes and text intervals.
+    pub marks: Vec<ViewMark>,
+}
+
+/// A mark on a dance's timeline: frames `from..=to` (one frame for a keyframe) and what it is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViewMark {
+    pub from: usize,
+    pub to: usize,
+    pub label: String,
 }
 
 /// The music: embedded bytes or a link relative to the page, with its beats (frames at 60 fps).
@@ -94,6 +104,7 @@ pub fn page(dances: &[ViewDance], music: Option<&ViewMusic>, opts: &ViewOptions)
                 "joints": base64(&values),
                 "motion_beats": d.motion_beats,
                 "seed_frames": d.seed_frames,
+                "marks": d.marks.iter().map(|m| json!({"from": m.from, "to": m.to, "label": m.label})).collect::<Vec<_>>(),
             })
         }).collect::<Vec<_>>(),
     });

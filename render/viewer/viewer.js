@@ -110,7 +110,8 @@ document.getElementById('speed').onchange = (e) => {
 };
 const loop = document.getElementById('loop');
 
-// Timeline: music beats above, each dance's motion beats below, the seed shaded, the playhead.
+// Timeline: music beats above, each dance's motion beats below, the seed shaded, keyframes (orange lines)
+// and text intervals (orange bands) marked, the playhead.
 const timeline = document.getElementById('timeline');
 function drawTimeline(t) {
   const w = (timeline.width = timeline.clientWidth * (window.devicePixelRatio || 1));
@@ -125,6 +126,18 @@ function drawTimeline(t) {
   dances.forEach((d, i) => {
     g.fillStyle = '#' + d.color.toString(16).padStart(6, '0');
     for (const f of d.motion_beats) g.fillRect(x(f), ((i + 1) * h) / rows, 1.5, h / rows);
+  });
+  dances.forEach((d, i) => {
+    for (const m of d.marks || []) {
+      const top = ((i + 1) * h) / rows;
+      if (m.to > m.from) {
+        g.fillStyle = 'rgba(232, 128, 0, 0.3)';
+        g.fillRect(x(m.from), top, Math.max(2, x(m.to) - x(m.from)), h / rows);
+      } else {
+        g.fillStyle = '#e80';
+        g.fillRect(x(m.from) - 1.5, top, 3, h / rows);
+      }
+    }
   });
   g.fillStyle = '#d00';
   g.fillRect((t / duration) * w - 1, 0, 2, h);
@@ -151,7 +164,14 @@ function show(t) {
   renderer.render(scene, camera);
   drawTimeline(t);
   const seeds = dances.filter((d) => frame < d.seed_frames).map((d) => d.label);
-  status.textContent = `t ${t.toFixed(2)} s · frame ${frame} / ${frames}` + (seeds.length ? ` · seed of ${seeds.join(', ')}` : '');
+  // A keyframe shows for ± 4 frames (half a token), a text over its interval.
+  const marked = dances.flatMap((d) =>
+    (d.marks || []).filter((m) => frame >= m.from - (m.to > m.from ? 0 : 4) && frame <= m.to + (m.to > m.from ? 0 : 4)).map((m) => m.label),
+  );
+  status.textContent =
+    `t ${t.toFixed(2)} s · frame ${frame} / ${frames}` +
+    (seeds.length ? ` · seed of ${seeds.join(', ')}` : '') +
+    (marked.length ? ` · ${marked.join(', ')}` : '');
   return frame;
 }
 let fixed = null;

@@ -43,7 +43,7 @@ pub enum Command {
     Sweep(train_cmds::SweepArgs),
     Report(train_cmds::ReportArgs),
     Export(train_cmds::ExportArgs),
-    Sample(sample_cmd::SampleArgs),
+    Sample(Box<sample_cmd::SampleArgs>),
     Eval(Box<qean::eval_cli::Args>),
     Curves(qean::eval_cli::CurvesArgs),
     Demo(demo_cmd::DemoArgs),
@@ -61,7 +61,7 @@ pub fn run(cli: Cli) -> anyhow::Result<i32> {
         Command::Sweep(a) => train_cmds::sweep(a),
         Command::Report(a) => train_cmds::report(a),
         Command::Export(a) => train_cmds::export(a),
-        Command::Sample(a) => sample_cmd::sample(a),
+        Command::Sample(a) => sample_cmd::sample(*a),
         Command::Demo(a) => demo_cmd::demo(a),
         other => run_data(other).map(|()| 0),
     }

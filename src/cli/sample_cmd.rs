@@ -217,7 +217,8 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
     })?;
     pb.finish_and_clear();
     if a.view {
-        write_views(&a, &ck, &songs, &written)?;
+        let marks = qean_pipeline::view::control_marks(&opts);
+        write_views(&a, (&ck, &marks), &songs, &written)?;
     }
     println!("checkpoint: {} (step {})", ck.dir.display(), ck.state.step);
     let reference = energy_reference(&a.run, &ck);
@@ -295,7 +296,7 @@ pub fn decode_choice(
 /// `--view`: one page per song with its dance and music.
 fn write_views(
     a: &SampleArgs,
-    ck: &checkpoint::Checkpoint,
+    (ck, marks): (&checkpoint::Checkpoint, &[qean_pipeline::view::ViewMark]),
     songs: &[generate::Song],
     written: &[generate::Generated],
 ) -> anyhow::Result<()> {
@@ -310,6 +311,7 @@ fn write_views(
             label: label.clone(),
             joints: g.joints.clone(),
             seed_frames: ck.config.seed_frames(),
+            marks: marks.to_vec(),
         };
         let music = qean_pipeline::view::PageMusic {
             path: song.path.clone(),

@@ -65,6 +65,7 @@ pub fn view(a: ViewArgs) -> anyhow::Result<()> {
             label,
             joints,
             seed_frames: a.seed_frames,
+            marks: Vec::new(),
         });
     }
     let music = a.music.as_ref().map(|path| PageMusic {

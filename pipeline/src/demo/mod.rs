@@ -654,6 +654,7 @@ fn compare_page(out: &Path, data: &Path, models: &[ModelResult]) -> crate::Resul
         label: format!("ground truth ({first}, to its own music)"),
         joints: gt.joints(root),
         seed_frames: 0,
+        marks: Vec::new(),
     }];
     for d in models.iter().flat_map(|m| &m.dances) {
         let npy = d
@@ -665,6 +666,7 @@ fn compare_page(out: &Path, data: &Path, models: &[ModelResult]) -> crate::Resul
             label: d.label.clone(),
             joints: qean_motion::joints_file::load_joints(npy, root)?,
             seed_frames: d.seed_frames,
+            marks: Vec::new(),
         });
     }
     let page = out.join("dances").join("compare.html");
