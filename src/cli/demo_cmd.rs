@@ -9,11 +9,13 @@ use qean_pipeline::demo::{self, Budget, DemoOptions};
 
 /// Run everything on embedded data, with nothing to download: a synthetic AIST++-format dataset whose
 /// music includes two real recordings; tiny FACT and full-QEAN, a small TSMT (Li et al.), a tiny VQ-VAE +
-/// GPT and its genre-control stage trained on CPU, side by side; a 1200-frame dance for a held-out real
-/// song (Kevin MacLeod's "Vibe Ace", CC BY 3.0) from each (genre control: in two genres), with a preview
+/// GPT with its genre- and keyframe-control stages trained on CPU, side by side; a 1200-frame dance for a
+/// held-out real song (Kevin MacLeod's "Vibe Ace", CC BY 3.0) from each (genre control: in two genres;
+/// keyframe control: through two poses of a test dance), with a preview
 /// and a verdict (does it keep dancing?); every model scored (FID_k, FID_g, Dist_k, Dist_g, BeatAlign,
 /// Li et al.'s metrics) next to chance baselines; the genre classifier and genre control's accuracy with
-/// their confusion matrices; then a test dance cut to 5 keys per measure and rebuilt by SLERP and by a
+/// their confusion matrices; keyframe control's joint error at the keyframes with and without them; then a
+/// test dance cut to 5 keys per measure and rebuilt by SLERP and by a
 /// tiny in-betweener. About 16–20 minutes on 2 CPU cores (`--quick`: about 1). Run it again to reuse
 /// finished stages; Ctrl-C stops training with a checkpoint and the next run continues.
 ///

@@ -14,6 +14,7 @@ use std::time::Instant;
 
 pub mod genre;
 pub mod inbetween;
+pub mod keyframe;
 
 use indicatif::ProgressBar;
 use qean_config::run::string_override;
@@ -73,6 +74,8 @@ const ASSETS: &[Asset] = &[
     asset!("configs/control/genre_clf_tiny.toml"),
     asset!("configs/control/genre_paper.toml"),
     asset!("configs/control/genre_tiny.toml"),
+    asset!("configs/control/keyframe_paper.toml"),
+    asset!("configs/control/keyframe_tiny.toml"),
 ];
 
 /// The run names of the demo's motion VQ-VAE (trained beside the dance models), of the GPT over its
@@ -82,6 +85,8 @@ const VQ: &str = "vq";
 const GPT: &str = "gpt";
 pub(crate) const CLF: &str = "genre_clf";
 pub(crate) const GENRE: &str = "genre";
+/// Keyframe control over the GPT (trained after genre control, used by [`keyframe`]).
+pub(crate) const KEYFRAME: &str = "keyframe";
 
 /// The run name of the demo's in-betweener (trained beside the dance models, used by
 /// [`inbetween`]).
@@ -128,7 +133,7 @@ impl Budget {
     pub fn steps_for(&self, name: &str) -> u64 {
         match name {
             "tsmt" | VQ | GPT => (self.steps * 3 / 4).max(25),
-            INBETWEENER | GENRE => (self.steps / 2).max(25),
+            INBETWEENER | GENRE | KEYFRAME => (self.steps / 2).max(25),
             CLF => (self.steps / 4).max(25),
             _ => self.steps,
         }
@@ -235,7 +240,7 @@ pub struct DemoResult {
     pub finished: bool,
 }
 
-fn say(msg: impl AsRef<str>) {
+pub(crate) fn say(msg: impl AsRef<str>) {
     eprintln!("[demo] {}", msg.as_ref());
 }
 
@@ -342,10 +347,10 @@ fn overrides(b: &Budget, data: &Path, name: &str, steps: u64) -> Vec<String> {
         format!("train.val_every={every}"),
         format!("train.log_every={}", (steps / 30).max(1)),
     ];
-    if name != CLF && name != GENRE {
+    if name != CLF && name != GENRE && name != KEYFRAME {
         o.push(format!("train.batch_size={}", b.batch_size));
     }
-    if name != INBETWEENER && name != CLF && name != GENRE {
+    if name != INBETWEENER && name != CLF && name != GENRE && name != KEYFRAME {
         o.extend([
             format!("model.motion_len={}", b.motion_len),
             format!("model.audio_len={}", b.audio_len),
@@ -399,9 +404,10 @@ fn plan<'a>(
                 string_override("gpt.vqvae_run", &vq.to_string_lossy()),
             ]);
         }
-        if *name == GENRE {
+        if *name == GENRE || *name == KEYFRAME {
             let gpt = opts.out.join("runs").join(GPT);
-            overrides.push(string_override("genre.gpt_run", &gpt.to_string_lossy()));
+            let key = format!("{name}.gpt_run");
+            overrides.push(string_override(&key, &gpt.to_string_lossy()));
         }
         let config = opts.out.join(preset);
         let wanted = RunConfig::load(&config, &overrides)?;
@@ -547,14 +553,18 @@ fn marker_text(ck: &Checkpoint) -> String {
 }
 
 /// The dance of run `ck` to the held-out song under `out/dances/<dir_name>/` (a genre-control run dances
-/// in `genre`), with its files and joints; reused when the marker names the same checkpoint.
-fn dance(
+/// in `genre`, a keyframe-control run through `keyframes`), with its files and joints; reused when the
+/// marker names the same checkpoint.
+pub(crate) fn dance(
     out: &Path,
     data: &Path,
     dir_name: &str,
     ck: &Checkpoint,
     frames: usize,
-    genre: Option<crate::gpt::GenreChoice>,
+    (genre, keyframes): (
+        Option<crate::gpt::GenreChoice>,
+        Vec<crate::keyframe_control::KeyframeRequest>,
+    ),
 ) -> crate::Result<(Vec<PathBuf>, Vec<qean_eval::Frame>)> {
     let name = dir_name;
     let dir = out.join("dances").join(dir_name);
@@ -610,7 +620,7 @@ fn dance(
             sample_seed: 0,
             genre,
             text: Vec::new(),
-            keyframes: Vec::new(),
+            keyframes,
         },
         &dir,
         |done, total| {
@@ -635,7 +645,7 @@ fn dance(
 
 /// The demo dataset's first test sequence: the held-out dances' seed, the ground truth beside them, the
 /// dance the in-betweening section rebuilds.
-fn first_test(ds: &qean_aistpp::dataset::Dataset) -> crate::Result<String> {
+pub(crate) fn first_test(ds: &qean_aistpp::dataset::Dataset) -> crate::Result<String> {
     ds.split(qean_aistpp::dataset::Split::Test)
         .into_iter()
         .next()
@@ -644,7 +654,12 @@ fn first_test(ds: &qean_aistpp::dataset::Dataset) -> crate::Result<String> {
 
 /// `dances/compare.html`: the first test sequence's ground truth (to its own music) beside every model's
 /// dance to the held-out song, with that song playing.
-fn compare_page(out: &Path, data: &Path, models: &[ModelResult]) -> crate::Result<PathBuf> {
+fn compare_page(
+    out: &Path,
+    data: &Path,
+    models: &[ModelResult],
+    more: &[&DanceResult],
+) -> crate::Result<PathBuf> {
     use crate::view::{write_page, PageDance, PageMusic};
     let root = qean_motion::FkRoot::Smpl;
     let ds = qean_aistpp::dataset::Dataset::open(data)?;
@@ -656,7 +671,11 @@ fn compare_page(out: &Path, data: &Path, models: &[ModelResult]) -> crate::Resul
         seed_frames: 0,
         marks: Vec::new(),
     }];
-    for d in models.iter().flat_map(|m| &m.dances) {
+    for d in models
+        .iter()
+        .flat_map(|m| &m.dances)
+        .chain(more.iter().copied())
+    {
         let npy = d
             .files
             .iter()
@@ -1053,7 +1072,7 @@ const PRESETS: [(&str, &str, &str); 5] = [
 
 /// The VQ-VAE, the GPT over its tokens and genre control over the GPT: one after the other, beside the
 /// others.
-const CHAIN: [(&str, &str, &str); 3] = [
+const CHAIN: [(&str, &str, &str); 4] = [
     (VQ, "tiny motion VQ-VAE", "configs/control/vqvae_tiny.toml"),
     (
         GPT,
@@ -1064,6 +1083,11 @@ const CHAIN: [(&str, &str, &str); 3] = [
         GENRE,
         "tiny GPT + genre control (each track in its genre)",
         "configs/control/genre_tiny.toml",
+    ),
+    (
+        KEYFRAME,
+        "tiny GPT + keyframe control",
+        "configs/control/keyframe_tiny.toml",
     ),
 ];
 
@@ -1129,7 +1153,14 @@ fn held_out_dances(
     };
     let mut dances = Vec::new();
     for (dir, dance_label, genre) in steered {
-        let (files, joints) = dance(out, data, &dir, ck, budget.dance_frames, genre)?;
+        let (files, joints) = dance(
+            out,
+            data,
+            &dir,
+            ck,
+            budget.dance_frames,
+            (genre, Vec::new()),
+        )?;
         let seed_frames = ck.config.seed_frames().min(joints.len());
         let (_, energy) = motion_energy([&joints[seed_frames..]], reference);
         say(format!("dance {dir}: {}", energy.describe(reference)));
@@ -1175,6 +1206,7 @@ pub fn run(opts: &DemoOptions) -> crate::Result<DemoResult> {
     };
     let (ib_ck, _, _) = take(&mut trained, INBETWEENER);
     let (clf_ck, _, _) = take(&mut trained, CLF);
+    let (kf_ck, _, _) = take(&mut trained, KEYFRAME);
     take(&mut trained, VQ);
     let reference =
         qean_eval::run_report::dataset_energy_reference(&data, qean_motion::FkRoot::Smpl)?;
@@ -1201,7 +1233,9 @@ pub fn run(opts: &DemoOptions) -> crate::Result<DemoResult> {
         &out.join("runs").join(GENRE),
         opts.budget.eval_frames,
     )?;
-    let page = compare_page(out, &data, &models)?;
+    say("keyframe control: the held-out dance through two poses of a test dance, then the fidelity test");
+    let keyframe = keyframe::run(out, &data, &kf_ck, &opts.budget, &reference)?;
+    let page = compare_page(out, &data, &models, &[&keyframe.dance])?;
     say(format!(
         "view: {} (every model's dance to the held-out song in 3-D with the music; open it in a browser)",
         page.display()
@@ -1214,6 +1248,7 @@ pub fn run(opts: &DemoOptions) -> crate::Result<DemoResult> {
     let table = table(&models, &reference)
         + &table_note(&opts.budget, &models)
         + &genre::table(&genre)
+        + &keyframe::table(&keyframe)
         + &inbetween::table(&inbetween);
     let summary = summary_text(
         &opts.budget,
