@@ -97,13 +97,18 @@ fn quick_demo_trains_samples_evaluates_and_resumes() {
         assert!(page.contains(label), "{label} missing from the page");
     }
     assert!(page.contains("data:audio/ogg;base64,"));
-    assert!(page.contains("tiny GPT + keyframe control"), "keyframe dance missing from the page");
+    assert!(
+        page.contains("tiny GPT + keyframe control"),
+        "keyframe dance missing from the page"
+    );
     // Keyframe control's section: the held-out dance through two poses, the fidelity test's verdict.
     assert!(
         table.contains("Keyframe control (SPEC §13.6)") && table.contains("keyframe.md"),
         "{table}"
     );
-    for model in ["fact", "qean", "tsmt", "gpt", "genre-KR", "genre-WA", "keyframe"] {
+    for model in [
+        "fact", "qean", "tsmt", "gpt", "genre-KR", "genre-WA", "keyframe",
+    ] {
         let dir = out.join("dances").join(model);
         for f in [
             "Vibe_Ace.pkl",

@@ -740,13 +740,22 @@ fn keyframe_stage_trains_resumes_exactly_and_edits_around_the_keyframe() {
     let vq = dir.path().join("vq");
     train_small_vq(&data, &vq, 2);
     let gpt = dir.path().join("gpt");
-    let mut sets: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
-    sets.extend([
-        string_set("gpt.vqvae_run", &vq),
-        "train.steps=2".into(),
-        "train.batch_size=4".into(),
-    ]);
-    train("control/gpt_tiny.toml", &data, &gpt, &sets, false);
+    let sets_of_gpt = |vq: &Path| -> Vec<String> {
+        let mut sets: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
+        sets.extend([
+            string_set("gpt.vqvae_run", vq),
+            "train.steps=2".into(),
+            "train.batch_size=4".into(),
+        ]);
+        sets
+    };
+    train(
+        "control/gpt_tiny.toml",
+        &data,
+        &gpt,
+        &sets_of_gpt(&vq),
+        false,
+    );
 
     let kf_sets = |steps: u64, run: &Path| -> Vec<String> {
         let mut s: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
@@ -931,6 +940,31 @@ fn keyframe_stage_trains_resumes_exactly_and_edits_around_the_keyframe() {
         let e = report[set]["kf_mpjpe"].as_f64().unwrap();
         assert!(e.is_finite() && e > 0.0, "{set}: {report}");
     }
+    // Unified sampling (SPEC §13.8): the GPT run with the keyframe run's module dances the keyframe run's
+    // dance; a module trained over another GPT is refused.
+    let unified = dir.path().join("kf_unified");
+    let mut extra = key.clone();
+    extra.extend(["--keyframe-run".to_string(), straight.display().to_string()]);
+    run_ok(&mut sample(&gpt, &unified, &extra));
+    assert_eq!(
+        joints(&unified),
+        b,
+        "the plugged-in module gives the keyframe run's dance"
+    );
+    let other_gpt = dir.path().join("gpt_other");
+    let mut other_sets = sets_of_gpt(&vq);
+    other_sets.push("train.seed=7".into());
+    train(
+        "control/gpt_tiny.toml",
+        &data,
+        &other_gpt,
+        &other_sets,
+        false,
+    );
+    assert_clean_failure(
+        &mut sample(&other_gpt, &dir.path().join("kf_other"), &extra),
+        "trained over another GPT",
+    );
     // `keyframe.tokenize = "paste"`: the pose written into the decoded dance and encoded again.
     let paste = dir.path().join("kf_paste");
     let mut sets = kf_sets(1, &gpt);

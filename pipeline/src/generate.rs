@@ -132,8 +132,10 @@ pub struct GenerateOptions {
     pub genre: Option<crate::gpt::GenreChoice>,
     /// Text control (GPT runs whose T-Base was trained).
     pub text: Vec<crate::gpt::TextRequest>,
-    /// Keyframe control (keyframe-control GPT runs).
+    /// Keyframe control (keyframe-control GPT runs, or any run of the same GPT with `keyframe_run`).
     pub keyframes: Vec<crate::gpt::KeyframeRequest>,
+    /// A keyframe-control run whose module joins this GPT run's sampling (unified sampling, SPEC §13.8).
+    pub keyframe_run: Option<std::path::PathBuf>,
 }
 
 impl GenerateOptions {
@@ -179,7 +181,15 @@ impl GenerateOptions {
         for t in &self.text {
             t.check(ck.config.gpt_table(), ck.config.seed_frames())?;
         }
-        if !self.keyframes.is_empty() && !matches!(spec, ModelSpec::GptKeyframe(..)) {
+        if self.keyframe_run.is_some() && !token_model {
+            return Err(Error::msg(format!(
+                "--keyframe-run plugs a keyframe module into a GPT run; {} is a {:?} run",
+                ck.dir.display(),
+                ck.config.model.arch
+            )));
+        }
+        let module = matches!(spec, ModelSpec::GptKeyframe(..)) || self.keyframe_run.is_some();
+        if !self.keyframes.is_empty() && !module {
             return Err(Error::msg(format!(
                 "--keyframe needs a keyframe-control run (model.arch = \"gpt_keyframe\", configs/control/keyframe_tiny.toml); {} is a {:?} run",
                 ck.dir.display(),

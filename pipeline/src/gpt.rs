@@ -600,6 +600,25 @@ impl GptRun {
         })
     }
 
+    /// The weights hash of the GPT this run samples with: its own (a GPT run), or the frozen GPT's that a
+    /// genre or keyframe stage recorded.
+    pub fn gpt_hash(&self, ck: &Checkpoint) -> Result<String> {
+        if let qean_config::ModelSpec::Gpt(_) = ck.config.spec() {
+            return Ok(ck.sampled_hash().to_string());
+        }
+        let state = qean_checkpoint::weights::read_family_state(ck)?;
+        state
+            .as_ref()
+            .and_then(|s| s["gpt_params_hash"].as_str())
+            .map(str::to_string)
+            .ok_or_else(|| {
+                Error::at(
+                    &ck.dir,
+                    "the checkpoint does not record its GPT's weights hash",
+                )
+            })
+    }
+
     /// The genre tokens of `choice` (an error for a run without a genre module).
     fn genre_tokens(
         &self,
@@ -681,6 +700,11 @@ pub fn generate(
 ) -> Result<Vec<Generated>> {
     let g = ck.config.gpt_table();
     let mut run = GptRun::load(ck)?;
+    if let Some(dir) = &opts.keyframe_run {
+        let (module, c) = crate::keyframe_control::keyframe_module_for(dir, &run.gpt_hash(ck)?)?;
+        run.decoding.warp_frames = c.warp_frames;
+        run.keyframe = Some((module, c));
+    }
     run.decoding.seam_frames = opts.seam_frames;
     if let Some(w) = opts.floor_window {
         run.decoding.floor_window = w;

@@ -144,6 +144,36 @@ impl KeyframeRequest {
     }
 }
 
+/// The keyframe module of the keyframe-control run `dir` (its newest checkpoint), for a GPT run whose
+/// sampled weights hash to `gpt_hash` (the GPT itself, or a genre stage's frozen GPT): unified sampling
+/// plugs it into another run of the same GPT (SPEC §13.8). Its `warp_frames` come with it.
+pub fn keyframe_module_for(dir: &Path, gpt_hash: &str) -> Result<(KeyframeModule, KeyframeConfig)> {
+    let ck = qean_checkpoint::checkpoint::resolve(dir)?;
+    let qean_checkpoint::FamilyModel::GptKeyframe(m) = ck.load_family(&Device::flex())? else {
+        return Err(Error::at(
+            &ck.dir,
+            format!(
+                "--keyframe-run needs a keyframe-control run (model.arch = \"gpt_keyframe\"), not {:?}",
+                ck.config.model.arch
+            ),
+        ));
+    };
+    let state = qean_checkpoint::weights::read_family_state(&ck)?;
+    let theirs = state
+        .as_ref()
+        .and_then(|s| s["gpt_params_hash"].as_str())
+        .unwrap_or_default();
+    if theirs != gpt_hash {
+        return Err(Error::at(
+            &ck.dir,
+            format!(
+                "--keyframe-run was trained over another GPT (weights hash {theirs}); this run's GPT is {gpt_hash}"
+            ),
+        ));
+    }
+    Ok((m.keyframe, ck.config.keyframe_table().clone()))
+}
+
 /// The generated `tokens` (the first `seed_tokens` the seed's) edited by the keyframes: their static-clip
 /// tokens written in, the masked positions around them predicted again in one window each, over the music
 /// tokens `music` (n × 280, the dance's).

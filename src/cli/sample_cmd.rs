@@ -155,6 +155,10 @@ pub struct SampleArgs {
     /// frame's pose of the motion file.
     #[arg(long, value_delimiter = ',', requires = "keyframes_from")]
     pub keyframe_frames: Vec<usize>,
+    /// GPT and genre-control runs: the keyframe module of this keyframe-control run (over the same GPT)
+    /// for --keyframes, so genre, text and keyframes go in one dance.
+    #[arg(long)]
+    pub keyframe_run: Option<PathBuf>,
 }
 
 pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
@@ -208,6 +212,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
                 .as_deref()
                 .map(|m| (m, a.keyframe_frames.as_slice())),
         )?,
+        keyframe_run: a.keyframe_run.clone(),
     };
     opts.check(&ck)?;
     let pb = qean_checkpoint::progress::bar(a.frames as u64, "", "frames");

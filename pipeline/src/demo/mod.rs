@@ -621,6 +621,7 @@ pub(crate) fn dance(
             genre,
             text: Vec::new(),
             keyframes,
+            keyframe_run: None,
         },
         &dir,
         |done, total| {
