@@ -62,6 +62,18 @@ fn train_small_vq(data: &Path, run: &Path, steps: u64) {
     train("control/vqvae_tiny.toml", data, run, &sets, false);
 }
 
+/// A small tiny-preset GPT (`GPT_SMALL`) over the VQ-VAE run `vq`, 2 steps at batch 4, with `extra` sets.
+fn train_small_gpt(data: &Path, vq: &Path, run: &Path, extra: &[&str]) {
+    let mut sets: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
+    sets.extend([
+        string_set("gpt.vqvae_run", vq),
+        "train.steps=2".into(),
+        "train.batch_size=4".into(),
+    ]);
+    sets.extend(extra.iter().map(|s| s.to_string()));
+    train("control/gpt_tiny.toml", data, run, &sets, false);
+}
+
 /// The trained parameters of a checkpoint whose names start with `prefix`.
 fn named(checkpoint: &Path, prefix: &str) -> Vec<qean_models::params::NamedParam> {
     named_of(checkpoint, prefix, Weights::Trained)
@@ -343,13 +355,7 @@ fn genre_stage_trains_resumes_exactly_and_steers_sampling() {
     let vq = dir.path().join("vq");
     train_small_vq(&data, &vq, 2);
     let gpt = dir.path().join("gpt");
-    let mut sets: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
-    sets.extend([
-        string_set("gpt.vqvae_run", &vq),
-        "train.steps=2".into(),
-        "train.batch_size=4".into(),
-    ]);
-    train("control/gpt_tiny.toml", &data, &gpt, &sets, false);
+    train_small_gpt(&data, &vq, &gpt, &[]);
 
     let genre_sets = |steps: u64, run: &Path| -> Vec<String> {
         let mut s: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
@@ -740,22 +746,7 @@ fn keyframe_stage_trains_resumes_exactly_and_edits_around_the_keyframe() {
     let vq = dir.path().join("vq");
     train_small_vq(&data, &vq, 2);
     let gpt = dir.path().join("gpt");
-    let sets_of_gpt = |vq: &Path| -> Vec<String> {
-        let mut sets: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
-        sets.extend([
-            string_set("gpt.vqvae_run", vq),
-            "train.steps=2".into(),
-            "train.batch_size=4".into(),
-        ]);
-        sets
-    };
-    train(
-        "control/gpt_tiny.toml",
-        &data,
-        &gpt,
-        &sets_of_gpt(&vq),
-        false,
-    );
+    train_small_gpt(&data, &vq, &gpt, &[]);
 
     let kf_sets = |steps: u64, run: &Path| -> Vec<String> {
         let mut s: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
@@ -952,15 +943,7 @@ fn keyframe_stage_trains_resumes_exactly_and_edits_around_the_keyframe() {
         "the plugged-in module gives the keyframe run's dance"
     );
     let other_gpt = dir.path().join("gpt_other");
-    let mut other_sets = sets_of_gpt(&vq);
-    other_sets.push("train.seed=7".into());
-    train(
-        "control/gpt_tiny.toml",
-        &data,
-        &other_gpt,
-        &other_sets,
-        false,
-    );
+    train_small_gpt(&data, &vq, &other_gpt, &["train.seed=7"]);
     assert_clean_failure(
         &mut sample(&other_gpt, &dir.path().join("kf_other"), &extra),
         "trained over another GPT",

@@ -564,6 +564,33 @@ impl Controls<'_> {
     }
 }
 
+/// The weights hash of the GPT a run samples with: its own (a GPT run), or the frozen GPT's that a genre or
+/// keyframe stage recorded.
+pub fn gpt_hash(ck: &Checkpoint) -> Result<String> {
+    if let qean_config::ModelSpec::Gpt(_) = ck.config.spec() {
+        return Ok(ck.sampled_hash().to_string());
+    }
+    let state = qean_checkpoint::weights::read_family_state(ck)?;
+    state
+        .as_ref()
+        .and_then(|s| s["gpt_params_hash"].as_str())
+        .map(str::to_string)
+        .ok_or_else(|| {
+            Error::at(
+                &ck.dir,
+                "the checkpoint does not record its GPT's weights hash",
+            )
+        })
+}
+
+/// A dance's tokens as the music-driven sampler left them: the seed's count, all tokens, the music tokens
+/// (n × 280) they were sampled over.
+pub struct Sampled {
+    pub seed_tokens: usize,
+    pub tokens: Vec<usize>,
+    pub music: Vec<f32>,
+}
+
 /// A GPT run with its frozen VQ-VAE, loaded once; a genre-control run also brings its genre module (its
 /// discriminator is not needed to sample), a keyframe-control run its keyframe module.
 pub struct GptRun {
@@ -600,25 +627,6 @@ impl GptRun {
         })
     }
 
-    /// The weights hash of the GPT this run samples with: its own (a GPT run), or the frozen GPT's that a
-    /// genre or keyframe stage recorded.
-    pub fn gpt_hash(&self, ck: &Checkpoint) -> Result<String> {
-        if let qean_config::ModelSpec::Gpt(_) = ck.config.spec() {
-            return Ok(ck.sampled_hash().to_string());
-        }
-        let state = qean_checkpoint::weights::read_family_state(ck)?;
-        state
-            .as_ref()
-            .and_then(|s| s["gpt_params_hash"].as_str())
-            .map(str::to_string)
-            .ok_or_else(|| {
-                Error::at(
-                    &ck.dir,
-                    "the checkpoint does not record its GPT's weights hash",
-                )
-            })
-    }
-
     /// The genre tokens of `choice` (an error for a run without a genre module).
     fn genre_tokens(
         &self,
@@ -646,6 +654,27 @@ impl GptRun {
         controls: Controls,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<Option<Motion>> {
+        let Some(sampled) = self.sample(g, seed, music, frames, picking, controls, progress)?
+        else {
+            return Ok(None);
+        };
+        self.finish(g, seed, &sampled, controls.keyframes, frames)
+            .map(Some)
+    }
+
+    /// The music-driven tokens of one dance (genre and texts applied, keyframes not yet): `None` when the
+    /// music is shorter than the seed and one token.
+    #[allow(clippy::too_many_arguments)]
+    pub fn sample(
+        &self,
+        g: &GptConfig,
+        seed: &Motion,
+        music: (&[f32], usize),
+        frames: usize,
+        picking: &Picking,
+        controls: Controls,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<Option<Sampled>> {
         let genre = self.genre_tokens(controls.genre)?;
         let seed_tokens = self.vq.tokens(seed, seed.frames / g.rate * g.rate)?;
         let available = music.1 / g.rate;
@@ -655,7 +684,7 @@ impl GptRun {
         }
         let texts = TextRequest::controls(controls.texts, g, seed_tokens.len(), n_total)?;
         let music = music_tokens(music.0, n_total, g.rate);
-        let mut tokens = sample_tokens(
+        let tokens = sample_tokens(
             &self.model,
             genre,
             &texts,
@@ -666,7 +695,25 @@ impl GptRun {
             picking,
             progress,
         );
-        if !controls.keyframes.is_empty() {
+        Ok(Some(Sampled {
+            seed_tokens: seed_tokens.len(),
+            tokens,
+            music,
+        }))
+    }
+
+    /// The dance of `sampled` tokens edited by `keyframes` (if any: re-predicted around them, the decoding
+    /// warped to them), the seed and up to `frames` generated frames.
+    pub fn finish(
+        &self,
+        g: &GptConfig,
+        seed: &Motion,
+        sampled: &Sampled,
+        keyframes: &[KeyframeRequest],
+        frames: usize,
+    ) -> Result<Motion> {
+        let mut tokens = sampled.tokens.clone();
+        if !keyframes.is_empty() {
             let Some((module, c)) = &self.keyframe else {
                 return Err(Error::msg(
                     "--keyframe needs a keyframe-control run (model.arch = \"gpt_keyframe\", configs/control/keyframe_tiny.toml); this GPT has no keyframe module",
@@ -677,15 +724,13 @@ impl GptRun {
                 &self.vq,
                 g,
                 &tokens,
-                seed_tokens.len(),
-                &music,
-                controls.keyframes,
+                sampled.seed_tokens,
+                &sampled.music,
+                keyframes,
             )?;
         }
-        let motion = decode_dance(&self.vq, seed, (&tokens, controls.keyframes), self.decoding);
-        Ok(Some(
-            motion.slice(0, (seed.frames + frames).min(motion.frames)),
-        ))
+        let motion = decode_dance(&self.vq, seed, (&tokens, keyframes), self.decoding);
+        Ok(motion.slice(0, (seed.frames + frames).min(motion.frames)))
     }
 }
 
@@ -701,7 +746,7 @@ pub fn generate(
     let g = ck.config.gpt_table();
     let mut run = GptRun::load(ck)?;
     if let Some(dir) = &opts.keyframe_run {
-        let (module, c) = crate::keyframe_control::keyframe_module_for(dir, &run.gpt_hash(ck)?)?;
+        let (module, c) = crate::keyframe_control::keyframe_module_for(dir, &gpt_hash(ck)?)?;
         run.decoding.warp_frames = c.warp_frames;
         run.keyframe = Some((module, c));
     }

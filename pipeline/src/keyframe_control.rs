@@ -158,11 +158,7 @@ pub fn keyframe_module_for(dir: &Path, gpt_hash: &str) -> Result<(KeyframeModule
             ),
         ));
     };
-    let state = qean_checkpoint::weights::read_family_state(&ck)?;
-    let theirs = state
-        .as_ref()
-        .and_then(|s| s["gpt_params_hash"].as_str())
-        .unwrap_or_default();
+    let theirs = crate::gpt::gpt_hash(&ck)?;
     if theirs != gpt_hash {
         return Err(Error::at(
             &ck.dir,

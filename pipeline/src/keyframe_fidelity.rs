@@ -124,25 +124,23 @@ pub fn keyframe_fidelity(req: &RunEvalRequest) -> Result<(FidelityReport, String
         if warp > 0 {
             variants.push((&mut tokens_only, keys.as_slice(), 0));
         }
+        // One music-driven sampling; the variants differ in the edit and the decoding only.
+        let sampled = run
+            .sample(
+                g,
+                &seed,
+                audio,
+                req.max_frames,
+                &picking,
+                Controls::default(),
+                &mut |_, _| {},
+            )?
+            .ok_or_else(|| {
+                Error::Invalid(format!("{name}: shorter than the seed and one token"))
+            })?;
         for (out, keyframes, warp_frames) in variants {
             run.decoding.warp_frames = warp_frames;
-            let controls = Controls {
-                keyframes,
-                ..Default::default()
-            };
-            let dance = run
-                .dance(
-                    g,
-                    &seed,
-                    audio,
-                    req.max_frames,
-                    &picking,
-                    controls,
-                    &mut |_, _| {},
-                )?
-                .ok_or_else(|| {
-                    Error::Invalid(format!("{name}: shorter than the seed and one token"))
-                })?;
+            let dance = run.finish(g, &seed, &sampled, keyframes, req.max_frames)?;
             let joints = frames_of(dance.joints(req.root));
             out.push(score(
                 name,

@@ -203,17 +203,7 @@ impl Family for GenreFamily {
             .map_err(|e| Error::msg(format!("codebook: {e:?}")))?;
         debug_assert_eq!(self.codebook.len(), k * dim);
         self.code_dim = dim;
-        qean_checkpoint::weights::check_frozen_hash(
-            resume,
-            "gpt_params_hash",
-            &frozen.checkpoint,
-            "the GPT this genre stage",
-        )?;
-        tracing::info!(
-            "genre control over the frozen GPT {} (step {})",
-            frozen.checkpoint.dir.display(),
-            frozen.checkpoint.state.step
-        );
+        frozen.confirm(resume, "genre")?;
         self.gpt = Some(frozen);
         Ok(())
     }
@@ -339,11 +329,7 @@ impl Family for GenreFamily {
 
     /// The frozen GPT's and VQ-VAE's checkpoints and weights hashes (a resume checks the GPT's).
     fn checkpoint_state(&self) -> Option<serde_json::Value> {
-        let gpt = self.gpt.as_ref()?;
-        let mut state = self.base.checkpoint_state()?;
-        state["gpt_checkpoint"] = serde_json::json!(gpt.checkpoint.dir);
-        state["gpt_params_hash"] = serde_json::json!(gpt.checkpoint.sampled_hash());
-        Some(state)
+        self.gpt.as_ref()?.stage_state(self.base.checkpoint_state())
     }
 }
 

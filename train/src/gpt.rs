@@ -315,6 +315,31 @@ impl FrozenGpt {
         Ok(())
     }
 
+    /// A resumed `stage` ("genre", "keyframe") must find this same GPT (its weights hash); logs which.
+    pub fn confirm(&self, resume: Option<&Checkpoint>, stage: &str) -> Result<()> {
+        qean_checkpoint::weights::check_frozen_hash(
+            resume,
+            "gpt_params_hash",
+            &self.checkpoint,
+            &format!("the GPT this {stage} stage"),
+        )?;
+        tracing::info!(
+            "{stage} control over the frozen GPT {} (step {})",
+            self.checkpoint.dir.display(),
+            self.checkpoint.state.step
+        );
+        Ok(())
+    }
+
+    /// A control stage's checkpoint state: the GPT family's `base` (its VQ-VAE) with this GPT's checkpoint
+    /// and weights hash (a resume checks it).
+    pub fn stage_state(&self, base: Option<serde_json::Value>) -> Option<serde_json::Value> {
+        let mut state = base?;
+        state["gpt_checkpoint"] = serde_json::json!(self.checkpoint.dir);
+        state["gpt_params_hash"] = serde_json::json!(self.checkpoint.sampled_hash());
+        Some(state)
+    }
+
     /// Its weights on `device`.
     pub fn load(&self, device: &Device) -> Result<Gpt> {
         match self.checkpoint.load_family(device)? {

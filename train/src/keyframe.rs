@@ -43,6 +43,7 @@ pub struct KeyframeFamily {
 
 /// A batch: mask-mode input tokens [B, n] (Mask = K + 1 where masked), music tokens [B, n, 280], the true
 /// tokens [B, n] and the loss weights [B, n] (1 at masked positions).
+#[derive(Clone)]
 pub struct KeyframeInputs {
     pub tokens: Tensor<2, Int>,
     pub music: Tensor<3>,
@@ -180,6 +181,12 @@ pub fn masked_position_loss(
     (picked * weights).sum().neg() / count
 }
 
+/// The masked cross-entropy of a batch through the GPT in mask mode with the keyframe module.
+fn batch_loss(model: &KeyframeGpt, x: KeyframeInputs) -> Tensor<1> {
+    let logits = mask_logits(&model.gpt, &model.keyframe, x.tokens, x.music);
+    masked_position_loss(logits, x.targets, x.weights)
+}
+
 impl Family for KeyframeFamily {
     type Model = KeyframeGpt;
     type Inputs = KeyframeInputs;
@@ -208,17 +215,7 @@ impl Family for KeyframeFamily {
         let frozen = FrozenGpt::resolve(c.gpt_run.as_deref(), "keyframe", gpt_of(config))?;
         frozen.adopt(config)?;
         self.base.prepare(config, dataset, train, resume)?;
-        qean_checkpoint::weights::check_frozen_hash(
-            resume,
-            "gpt_params_hash",
-            &frozen.checkpoint,
-            "the GPT this keyframe stage",
-        )?;
-        tracing::info!(
-            "keyframe control over the frozen GPT {} (step {})",
-            frozen.checkpoint.dir.display(),
-            frozen.checkpoint.state.step
-        );
+        frozen.confirm(resume, "keyframe")?;
         self.gpt = Some(frozen);
         self.statics = self.static_tokens(config, dataset, train)?;
         Ok(())
@@ -255,8 +252,7 @@ impl Family for KeyframeFamily {
     }
 
     fn loss(&self, model: &KeyframeGpt, x: KeyframeInputs, _config: &RunConfig) -> Tensor<1> {
-        let logits = mask_logits(&model.gpt, &model.keyframe, x.tokens, x.music);
-        masked_position_loss(logits, x.targets, x.weights)
+        batch_loss(model, x)
     }
 
     /// One optimiser over the keyframe module alone (the GPT stays as it was trained).
@@ -271,13 +267,7 @@ impl Family for KeyframeFamily {
         _group: usize,
         _config: &RunConfig,
     ) -> Tensor<1> {
-        let logits = mask_logits(
-            &model.gpt,
-            &model.keyframe,
-            x.tokens.clone(),
-            x.music.clone(),
-        );
-        masked_position_loss(logits, x.targets.clone(), x.weights.clone())
+        batch_loss(model, x.clone())
     }
 
     /// The masked cross-entropy of every sequence's first window, masks from seed 0.
@@ -290,19 +280,13 @@ impl Family for KeyframeFamily {
     ) -> f64 {
         let (g, c) = (gpt_of(config), keyframe_of(config));
         crate::family::mean_over_first_windows(set, config.train.batch_size, |batch| {
-            let x = self.masked(&batch, g, c, 0, device);
-            let logits = mask_logits(&model.gpt, &model.keyframe, x.tokens, x.music);
-            masked_position_loss(logits, x.targets, x.weights)
+            batch_loss(model, self.masked(&batch, g, c, 0, device))
         })
     }
 
     /// The frozen GPT's and VQ-VAE's checkpoints and weights hashes (a resume checks the GPT's).
     fn checkpoint_state(&self) -> Option<serde_json::Value> {
-        let gpt = self.gpt.as_ref()?;
-        let mut state = self.base.checkpoint_state()?;
-        state["gpt_checkpoint"] = serde_json::json!(gpt.checkpoint.dir);
-        state["gpt_params_hash"] = serde_json::json!(gpt.checkpoint.sampled_hash());
-        Some(state)
+        self.gpt.as_ref()?.stage_state(self.base.checkpoint_state())
     }
 }
 
