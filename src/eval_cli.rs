@@ -480,7 +480,7 @@ fn run_inbetween(args: &Args) -> anyhow::Result<String> {
         .collect::<Result<Vec<_>, _>>()
         .map_err(anyhow::Error::msg)?;
     let rows = rows_of(strategies, methods);
-    let settings = crate::keyframe_settings::parse(&args.set)?;
+    let settings = qean_pipeline::keyframe_settings::parse(&args.set)?;
     let (_, md) = run(&InbetweenRequest {
         data,
         keys: args.keys.clone(),

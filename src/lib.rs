@@ -1,5 +1,4 @@
 //! The `qean` package's library: what the binary does beyond dispatching to the workspace crates.
 
 pub mod eval_cli;
-pub mod keyframe_settings;
 pub mod logging;

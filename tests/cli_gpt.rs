@@ -74,6 +74,24 @@ fn train_small_gpt(data: &Path, vq: &Path, run: &Path, extra: &[&str]) {
     train("control/gpt_tiny.toml", data, run, &sets, false);
 }
 
+/// The Adam state (moments, step counts) of a checkpoint's parameters whose module paths start with
+/// `prefix`, as raw bytes by `path.field` (`optimizer.bpk` keys each state tensor `{param_id}.{field}` and
+/// maps the id to the parameter's path in its metadata).
+fn adam_state(checkpoint: &Path, prefix: &str) -> std::collections::BTreeMap<String, Vec<u8>> {
+    let r = burn_pack::Reader::from_file(checkpoint.join("optimizer.bpk")).unwrap();
+    let paths = r.metadata().clone();
+    let names: Vec<String> = r.tensor_names().iter().map(|s| s.to_string()).collect();
+    names
+        .into_iter()
+        .filter_map(|n| {
+            let (id, field) = n.split_once('.')?;
+            let path = paths.get(id)?;
+            path.starts_with(prefix)
+                .then(|| (format!("{path}.{field}"), r.tensor_data(&n).unwrap()))
+        })
+        .collect()
+}
+
 /// The trained parameters of a checkpoint whose names start with `prefix`.
 fn named(checkpoint: &Path, prefix: &str) -> Vec<qean_models::params::NamedParam> {
     named_of(checkpoint, prefix, Weights::Trained)
@@ -553,13 +571,32 @@ fn genre_stage_trains_resumes_exactly_and_steers_sampling() {
 fn text_steps_alternate_with_music_steps_and_leave_the_idle_base_alone() {
     let dir = tempfile::tempdir().unwrap();
     let data = dataset(dir.path());
+    // A text–motion set in the HumanML3D layout (22 joints at 20 fps, two captions per motion): its five
+    // training motions join the VQ-VAE's training windows (SPEC §13.2.5) and its captions the text steps.
+    let text_set = dir.path().join("text_set");
+    run_ok(
+        qean()
+            .args(["synth", "--sequences", "6", "--seconds", "3", "--out"])
+            .arg(dir.path().join("synth_small"))
+            .arg("--text-set")
+            .arg(&text_set),
+    );
     let vq = dir.path().join("vq");
-    train_small_vq(&data, &vq, 2);
+    let mut vq_sets: Vec<String> = VQ_SMALL.iter().map(|s| s.to_string()).collect();
+    vq_sets.extend([
+        "train.steps=2".into(),
+        "train.batch_size=4".into(),
+        string_set("vq.text_set", &text_set),
+    ]);
+    train("control/vqvae_tiny.toml", &data, &vq, &vq_sets, false);
+    let log = std::fs::read_to_string(vq.join("train.log")).unwrap();
+    assert!(log.contains("text set: 5 motions join"), "{log}");
     let gpt_sets = |steps: u64| -> Vec<String> {
         let mut s: Vec<String> = GPT_SMALL.iter().map(|s| s.to_string()).collect();
         s.extend([
             string_set("gpt.vqvae_run", &vq),
             "gpt.synthetic_text=true".into(),
+            string_set("gpt.text_set", &text_set),
             format!("train.steps={steps}"),
             "train.batch_size=4".into(),
             "train.checkpoint_every=1".into(),
@@ -584,8 +621,30 @@ fn text_steps_alternate_with_music_steps_and_leave_the_idle_base_alone() {
     assert_eq!(named(&cks[1], "t_base"), named(&cks[2], "t_base"));
     assert_ne!(named(&cks[1], "m_base"), named(&cks[2], "m_base"));
     assert_ne!(named(&cks[1], "head"), named(&cks[2], "head"));
+    // The idle base's Adam moments stay too: no T-Base state before the first text step, the M-Base's
+    // unchanged across it, the T-Base's unchanged across the next music step.
+    assert!(adam_state(&cks[0], "t_base").is_empty());
+    assert!(!adam_state(&cks[0], "m_base").is_empty());
+    assert_eq!(adam_state(&cks[0], "m_base"), adam_state(&cks[1], "m_base"));
+    assert!(!adam_state(&cks[1], "t_base").is_empty());
+    assert_eq!(adam_state(&cks[1], "t_base"), adam_state(&cks[2], "t_base"));
+    assert_ne!(adam_state(&cks[1], "m_base"), adam_state(&cks[2], "m_base"));
+    assert_ne!(adam_state(&cks[0], "head"), adam_state(&cks[1], "head"));
+    // One pair per synthetic-text training sequence and per caption of the text set's training motions.
     let log = std::fs::read_to_string(straight.join("train.log")).unwrap();
-    assert!(log.contains("text steps: "), "{log}");
+    let lines = |p: &Path| {
+        std::fs::read_to_string(p)
+            .unwrap()
+            .lines()
+            .filter(|l| !l.is_empty())
+            .count()
+    };
+    let pairs =
+        lines(&data.join("splits/crossmodal_train.txt")) + 2 * lines(&text_set.join("train.txt"));
+    assert!(
+        log.contains(&format!("text steps: {pairs} (embedding, motion) pairs")),
+        "{log}"
+    );
     // Resumed after the text step: the same weights and losses.
     let split = dir.path().join("split");
     train("control/gpt_tiny.toml", &data, &split, &gpt_sets(2), false);
@@ -725,6 +784,27 @@ fn text_steps_alternate_with_music_steps_and_leave_the_idle_base_alone() {
             "{message}"
         );
     }
+
+    // A broken text set: one line naming the file, no run directory.
+    let broken = dir.path().join("broken_set");
+    std::fs::create_dir(&broken).unwrap();
+    for sub in ["new_joints", "texts", "text_emb"] {
+        std::fs::create_dir(broken.join(sub)).unwrap();
+        for e in std::fs::read_dir(text_set.join(sub)).unwrap() {
+            let e = e.unwrap();
+            std::fs::copy(e.path(), broken.join(sub).join(e.file_name())).unwrap();
+        }
+    }
+    std::fs::copy(text_set.join("train.txt"), broken.join("train.txt")).unwrap();
+    qean_io::npy::write_f32(&broken.join("text_emb/000001.npy"), &[2, 7], &[0.0; 14]).unwrap();
+    let bad_run = dir.path().join("bad_text_run");
+    let mut sets = gpt_sets(1);
+    sets.push(string_set("gpt.text_set", &broken));
+    assert_clean_failure(
+        &mut train_command("control/gpt_tiny.toml", &data, &bad_run, &sets, false),
+        "000001.npy: embeddings of shape [2, 7]; expected (lines, 512)",
+    );
+    assert!(!bad_run.exists());
 }
 
 /// Keyframe control (SPEC §13.6): §13.9's counts, stage 3b over a frozen GPT with exact resume (only the

@@ -88,6 +88,9 @@ pub struct SequenceSet {
     pub sequences: Vec<Sequence>,
     /// Names skipped because they are shorter than a window.
     pub skipped: Vec<String>,
+    /// Visits of each sequence per epoch (empty: one each). A set that joins two sources balances them
+    /// with it (the VQ-VAE's AIST++ + text set, SPEC §13.2.5 "drawn 1:1").
+    pub visits: Vec<usize>,
 }
 
 /// Music features of one music ID: frames × 35 row-major, and the frame count.
@@ -170,6 +173,7 @@ impl SequenceSet {
             spec,
             sequences,
             skipped,
+            visits: Vec::new(),
         })
     }
 
@@ -333,7 +337,7 @@ impl WindowSampler {
     }
 
     pub fn resume(state: SamplerState, set: &SequenceSet) -> Self {
-        let order = epoch_order(state.seed, state.epoch, set.sequences.len());
+        let order = epoch_order(state.seed, state.epoch, set);
         WindowSampler { state, order }
     }
 
@@ -348,7 +352,7 @@ impl WindowSampler {
             if self.state.position >= self.order.len() {
                 self.state.epoch += 1;
                 self.state.position = 0;
-                self.order = epoch_order(self.state.seed, self.state.epoch, set.sequences.len());
+                self.order = epoch_order(self.state.seed, self.state.epoch, set);
             }
             let i = self.order[self.state.position];
             let mut rng = ChaCha8Rng::seed_from_u64(mix(
@@ -372,8 +376,23 @@ fn mix(seed: u64, a: u64, b: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-fn epoch_order(seed: u64, epoch: u64, n: usize) -> Vec<usize> {
-    let mut order: Vec<usize> = (0..n).collect();
+/// One epoch's visits in a seeded random order: each sequence once, or `set.visits[i]` times.
+fn epoch_order(seed: u64, epoch: u64, set: &SequenceSet) -> Vec<usize> {
+    let mut order: Vec<usize> = if set.visits.is_empty() {
+        (0..set.sequences.len()).collect()
+    } else {
+        assert_eq!(
+            set.visits.len(),
+            set.sequences.len(),
+            "one visit count per sequence"
+        );
+        set.visits
+            .iter()
+            .enumerate()
+            .flat_map(|(i, &k)| std::iter::repeat_n(i, k))
+            .collect()
+    };
+    let n = order.len();
     let mut rng = ChaCha8Rng::seed_from_u64(mix(seed, epoch, 0));
     for i in (1..n).rev() {
         let j = rng.random_range(0..=i);
@@ -412,6 +431,7 @@ mod tests {
             spec: WindowSpec::default(),
             sequences,
             skipped: vec![],
+            visits: vec![],
         }
     }
 
@@ -459,6 +479,31 @@ mod tests {
         }
         assert_eq!(sampler.state().epoch, 1);
         assert_eq!(sampler.state().position, 5);
+    }
+
+    #[test]
+    fn visit_counts_repeat_sequences_within_an_epoch() {
+        let plain = toy_set(&[240, 250, 260]);
+        let ones = SequenceSet {
+            visits: vec![1, 1, 1],
+            ..plain.clone()
+        };
+        // One visit each is the plain stream.
+        assert_eq!(
+            WindowSampler::new(5, &plain).next_batch(&plain, 9),
+            WindowSampler::new(5, &ones).next_batch(&ones, 9)
+        );
+        let weighted = SequenceSet {
+            visits: vec![3, 1, 0],
+            ..plain
+        };
+        let mut sampler = WindowSampler::new(5, &weighted);
+        let b = sampler.next_batch(&weighted, 8);
+        for epoch in b.names.chunks(4) {
+            let count = |n: &str| epoch.iter().filter(|x| *x == n).count();
+            assert_eq!((count("s0"), count("s1"), count("s2")), (3, 1, 0));
+        }
+        assert_eq!(sampler.state().epoch, 1);
     }
 
     #[test]

@@ -6,8 +6,7 @@ use qean_config::gpt::GptConfig;
 use qean_io::error::{Error, Result};
 use qean_models::vqvae::VqVae;
 use qean_motion::motion::Motion;
-use qean_motion::pos72::POS72;
-use rand::{Rng, SeedableRng};
+use qean_motion::pos72::{joints_to_pos72_f32, POS72};
 
 use crate::checkpoint::Checkpoint;
 use crate::registry::FamilyModel;
@@ -63,7 +62,18 @@ impl FrozenVq {
     /// The tokens of a motion's first `frames` frames (a multiple of the rate).
     pub fn tokens(&self, motion: &Motion, frames: usize) -> Result<Vec<usize>> {
         let c = self.checkpoint.config.vq_table();
-        let mut rows = motion_pos72(motion, c);
+        self.tokens_of_rows(motion_pos72(motion, c), frames)
+    }
+
+    /// The tokens of the first `frames` frames (a multiple of the rate) of joint positions (frames × 24).
+    pub fn tokens_of_joints(&self, joints: &[[f64; 3]], frames: usize) -> Result<Vec<usize>> {
+        let c = self.checkpoint.config.vq_table();
+        let rows = joints_to_pos72_f32(joints, &pos72_options(c));
+        self.tokens_of_rows(rows, frames)
+    }
+
+    fn tokens_of_rows(&self, mut rows: Vec<f32>, frames: usize) -> Result<Vec<usize>> {
+        let c = self.checkpoint.config.vq_table();
         rows.truncate(frames * POS72);
         normalise(&mut rows, c);
         let x = Tensor::<3>::from_data(TensorData::new(rows, [1, frames, POS72]), &Device::flex());
@@ -133,20 +143,4 @@ pub fn music_tokens(features: &[f32], n: usize, rate: usize) -> Vec<f32> {
     features[..n * rate * FEATURES].to_vec()
 }
 
-/// A pseudo text embedding of a genre: a unit vector of `dim` seeded normal values (synthetic text data).
-pub fn genre_embedding(genre: usize, dim: usize) -> Vec<f32> {
-    let v = normal_noise(0x7465_7874 ^ genre as u64, dim);
-    let norm = v.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-12);
-    v.iter().map(|x| x / norm).collect()
-}
-
-/// `n` standard normal values from a seeded ChaCha stream (Box–Muller, row-major): the noise z.
-pub fn normal_noise(seed: u64, n: usize) -> Vec<f32> {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    (0..n)
-        .map(|_| {
-            let (u1, u2): (f64, f64) = (rng.random(), rng.random());
-            ((-2.0 * (1.0 - u1).ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()) as f32
-        })
-        .collect()
-}
+pub use qean_aistpp::text_set::{genre_embedding, normal_noise};

@@ -62,6 +62,17 @@ pub struct GptConfig {
     /// Text data: a directory of `NAME.npy` text embeddings (`text_dim` values each, e.g. CLIP) for training
     /// sequences; sequences without one take no text steps.
     pub text_dir: Option<std::path::PathBuf>,
+    /// Text data: a text–motion set in the HumanML3D layout (SPEC §13.1: `new_joints/`, `texts/`,
+    /// `text_emb/`, `<split>.txt`); each (motion, caption) pair of its `text_split` is one text item, its
+    /// motion made 24 joints at 60 fps and tokenised by the frozen VQ-VAE.
+    pub text_set: Option<std::path::PathBuf>,
+    /// The split file of `text_set` read for training (`train` → `train.txt`).
+    pub text_split: String,
+    /// Frame rate of `text_set`'s joints (HumanML3D: 20); resampled to 60 fps by linear interpolation.
+    pub text_fps: f64,
+    /// Scale every text embedding (training and sampling) to unit length (SPEC `text.l2_normalise`; off:
+    /// T2M-GPT feeds CLIP raw).
+    pub text_l2_normalise: bool,
     /// Synthetic text data: every training sequence gets a pseudo-embedding of its genre (a seeded random
     /// unit vector per AIST++ genre code). It exercises the T-Base and the shared-head alternation; it is
     /// not language.
@@ -118,6 +129,10 @@ impl GptConfig {
             pkeep: 0.5,
             text_every: 2,
             text_dir: None,
+            text_set: None,
+            text_split: "train".into(),
+            text_fps: 20.0,
+            text_l2_normalise: false,
             synthetic_text: false,
             seed_tokens: 15,
             top_k: 1,
@@ -178,6 +193,11 @@ impl GptConfig {
         "codes, rate, hidden, heads, base_layers, head_layers, window, m_layout, text_dim";
 
     /// Values no GPT can use, as one message.
+    /// Whether text steps are configured (any of `text_dir`, `text_set`, `synthetic_text`).
+    pub fn has_text(&self) -> bool {
+        self.text_dir.is_some() || self.text_set.is_some() || self.synthetic_text
+    }
+
     pub fn validate(&self) -> Result<(), String> {
         if self.hidden == 0 || self.heads == 0 || !self.hidden.is_multiple_of(self.heads) {
             return Err(format!(
@@ -213,6 +233,12 @@ impl GptConfig {
         }
         if self.text_every == 0 {
             return Err("gpt.text_every must be at least 1".into());
+        }
+        if !(self.text_fps.is_finite() && self.text_fps > 0.0 && self.text_fps <= 60.0) {
+            return Err(format!(
+                "gpt.text_fps must be in (0, 60] (HumanML3D: 20), got {}",
+                self.text_fps
+            ));
         }
         Ok(())
     }

@@ -60,6 +60,17 @@ pub enum VqLoss {
     T2m,
 }
 
+/// How AIST++ and a text set share the VQ-VAE's epochs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TextBalance {
+    /// 1:1: the smaller source's sequences repeat within an epoch.
+    #[default]
+    Equal,
+    /// Each sequence once per epoch.
+    Proportional,
+}
+
 /// Feature normalisation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -106,8 +117,20 @@ pub struct VqConfig {
     pub lambda_acc: f64,
     /// β on the commitment loss.
     pub commit: f64,
-    /// A random rotation about y per window.
-    pub yaw_augment: bool,
+    /// A random rotation about y per window (unset: on when `text_set` is used, SPEC §13.2.1 [DECISION]:
+    /// HumanML3D faces +Z at frame 0, AIST++ does not).
+    pub yaw_augment: Option<bool>,
+    /// A text–motion set in the HumanML3D layout (SPEC §13.1) whose `text_split` motions join the AIST++
+    /// training split (SPEC §13.2.5), as 24 joints at 60 fps: the codebook the GPT's T-Base predicts must
+    /// cover text motions too.
+    pub text_set: Option<std::path::PathBuf>,
+    pub text_split: String,
+    /// Frame rate of `text_set`'s joints (HumanML3D: 20).
+    pub text_fps: f64,
+    /// How the two sources are drawn: `equal` (SPEC [DECISION] "balance": each epoch visits the smaller
+    /// side's sequences as often as it takes to match the larger's count) or `proportional` (each
+    /// sequence once).
+    pub text_balance: TextBalance,
     /// Per-channel statistics of `normalise = "zscore"` (filled by the trainer from the training split).
     pub mean: Vec<f64>,
     pub std: Vec<f64>,
@@ -143,7 +166,11 @@ impl VqConfig {
             lambda_vel: 1.0,
             lambda_acc: 1.0,
             commit: 0.02,
-            yaw_augment: false,
+            yaw_augment: None,
+            text_set: None,
+            text_split: "train".into(),
+            text_fps: 20.0,
+            text_balance: TextBalance::Equal,
             mean: Vec::new(),
             std: Vec::new(),
         }
@@ -166,8 +193,19 @@ impl VqConfig {
         1 << self.down_t
     }
 
+    /// Whether windows are rotated about y (`yaw_augment`, or by default whether a text set is used).
+    pub fn yaw(&self) -> bool {
+        self.yaw_augment.unwrap_or(self.text_set.is_some())
+    }
+
     /// Values no VQ-VAE can use, as one message.
     pub fn validate(&self) -> Result<(), String> {
+        if !(self.text_fps.is_finite() && self.text_fps > 0.0 && self.text_fps <= 60.0) {
+            return Err(format!(
+                "vq.text_fps must be in (0, 60] (HumanML3D: 20), got {}",
+                self.text_fps
+            ));
+        }
         if self.width == 0 || self.code_dim == 0 || self.codes < 2 || self.depth == 0 {
             return Err(
                 "vq.width, vq.code_dim and vq.depth must be at least 1, vq.codes at least 2".into(),

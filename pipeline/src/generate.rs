@@ -173,7 +173,7 @@ impl GenerateOptions {
         }
         if !self.text.is_empty() && !token_model {
             return Err(Error::msg(format!(
-                "--text-embedding needs a GPT run with a trained T-Base (configs/control/gpt_tiny.toml with gpt.synthetic_text or gpt.text_dir); {} is a {:?} run",
+                "--text-embedding needs a GPT run with a trained T-Base (configs/control/gpt_tiny.toml with gpt.text_set, gpt.text_dir or gpt.synthetic_text); {} is a {:?} run",
                 ck.dir.display(),
                 ck.config.model.arch
             )));

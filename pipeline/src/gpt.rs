@@ -228,8 +228,10 @@ impl TextRequest {
         Ok((a, b))
     }
 
-    /// The embedding's values, `dim` of them.
-    fn embedding(&self, dim: usize) -> Result<Vec<f32>> {
+    /// The embedding's values, `gpt.text_dim` of them (unit length under `gpt.text_l2_normalise`, as the
+    /// T-Base was trained).
+    fn embedding(&self, g: &GptConfig) -> Result<Vec<f32>> {
+        let dim = g.text_dim;
         if let Some(code) = self.embedding.strip_prefix("genre:") {
             let genre = GenreChoice::parse(code, 0)?.genre;
             return Ok(qean_checkpoint::gpt::genre_embedding(genre, dim));
@@ -245,7 +247,15 @@ impl TextRequest {
                 ),
             ));
         }
-        Ok(a.data.iter().map(|&v| v as f32).collect())
+        let v: Vec<f32> = a.data.iter().map(|&v| v as f32).collect();
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(Error::at(path, "the text embedding is not finite"));
+        }
+        Ok(if g.text_l2_normalise {
+            qean_aistpp::text_set::l2_normalised(&v)
+        } else {
+            v
+        })
     }
 
     /// What can be checked before any music is read: a GPT whose T-Base was trained, an embedding of its
@@ -294,9 +304,9 @@ impl TextRequest {
         seed_tokens: usize,
         n_total: usize,
     ) -> Result<TextControl> {
-        if g.text_dir.is_none() && !g.synthetic_text {
+        if !g.has_text() {
             return Err(Error::msg(
-                "text control needs a GPT whose T-Base was trained (gpt.text_dir or gpt.synthetic_text); this run took music steps only",
+                "text control needs a GPT whose T-Base was trained (gpt.text_set, gpt.text_dir or gpt.synthetic_text); this run took music steps only",
             ));
         }
         let frame = |s: f64| (s * 60.0).round() as usize;
@@ -323,7 +333,7 @@ impl TextRequest {
             )));
         }
         Ok(TextControl {
-            embedding: self.embedding(g.text_dim)?,
+            embedding: self.embedding(g)?,
             start,
             end,
         })

@@ -19,6 +19,7 @@ pub mod inbetween;
 pub mod inbetween_benchmark;
 pub mod keyframe_control;
 pub mod keyframe_fidelity;
+pub mod keyframe_settings;
 pub mod keyframes;
 pub mod tsmt;
 pub mod view;

@@ -49,6 +49,12 @@ pub struct SynthArgs {
     /// that the music says the genre as AIST++'s does (docs/control.md).
     #[arg(long)]
     pub genre_music: bool,
+    /// Also write a synthetic text–motion set in the HumanML3D layout into DIR (SPEC §13.1): --sequences
+    /// procedural dances of at most 10 s, 22 joints at 20 fps, two captions each whose embeddings are the
+    /// genre's pseudo-embedding (512 values, what `--text-embedding genre:XX` samples with). It trains a
+    /// GPT's T-Base (gpt.text_set = DIR) without a text encoder; it is not language.
+    #[arg(long, value_name = "DIR")]
+    pub text_set: Option<PathBuf>,
 }
 
 pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
@@ -70,6 +76,21 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
         genre_music: a.genre_music,
     };
     let report = synth::generate(&a.out, &opts)?;
+    if let Some(dir) = &a.text_set {
+        let text = synth::text_set::TextSynthOptions {
+            motions: a.sequences,
+            seconds: a.seconds.min(10.0),
+            seed: a.seed,
+            fps: 20.0,
+            dim: 512,
+        };
+        synth::text_set::generate_text_set(dir, &text)?;
+        println!(
+            "wrote {}: a text–motion set of {} motions",
+            dir.display(),
+            a.sequences
+        );
+    }
     let count = |s: &str| report.splits.get(s).map_or(0, |v| v.len());
     println!(
         "wrote {}: {} train, {} val, {} test sequences, {} music tracks",

@@ -60,7 +60,7 @@ pub fn keyframes(a: KeyframesArgs) -> anyhow::Result<()> {
         strategy,
         n: a.n,
         bpm: a.bpm,
-        options: qean::keyframe_settings::parse(&a.set)?.keyframes,
+        options: qean_pipeline::keyframe_settings::parse(&a.set)?.keyframes,
     })?;
     let text = serde_json::to_string_pretty(&result)? + "\n";
     qean_io::fsutil::atomic_write(&a.json, text.as_bytes())?;
@@ -151,7 +151,7 @@ pub enum MethodArg {
 }
 
 pub fn edit(a: EditArgs) -> anyhow::Result<()> {
-    let settings = qean::keyframe_settings::parse(&a.set)?;
+    let settings = qean_pipeline::keyframe_settings::parse(&a.set)?;
     let report = qean_pipeline::edit::edit(&qean_pipeline::edit::EditRequest {
         motion: a.motion.clone(),
         music: a.music.clone(),

@@ -5,6 +5,7 @@
 
 pub mod dance;
 pub mod music;
+pub mod text_set;
 
 use std::collections::BTreeMap;
 use std::path::Path;

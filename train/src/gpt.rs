@@ -108,9 +108,35 @@ pub fn per_sample_cross_entropy(
 }
 
 impl GptFamily {
-    /// The (embedding, motion) pairs of the training split named by `gpt.text_dir` or `gpt.synthetic_text`,
-    /// each with the first n + 1 codes of its motion.
+    /// The (embedding, motion) pairs of text steps, each with the first n + 1 codes of its motion: the
+    /// training sequences named by `gpt.text_dir` or `gpt.synthetic_text`, and every caption of
+    /// `gpt.text_set`'s `text_split`.
     fn load_texts(&self, g: &GptConfig, dataset: &Dataset, train: Split) -> Result<Vec<TextItem>> {
+        if !g.has_text() {
+            return Ok(Vec::new());
+        }
+        let mut items = self.sequence_texts(g, dataset, train)?;
+        if let Some(root) = &g.text_set {
+            items.extend(self.text_set_items(g, root)?);
+        }
+        if items.is_empty() {
+            return Err(Error::at(
+                g.text_set.as_deref().unwrap_or(&dataset.root),
+                "text steps are configured (gpt.text_set, gpt.text_dir or gpt.synthetic_text) but no (embedding, motion) pair was found",
+            ));
+        }
+        tracing::info!("text steps: {} (embedding, motion) pairs", items.len());
+        Ok(items)
+    }
+
+    /// Text items of AIST++-layout training sequences: `gpt.text_dir/<sequence>.npy` or the synthetic
+    /// genre embedding.
+    fn sequence_texts(
+        &self,
+        g: &GptConfig,
+        dataset: &Dataset,
+        train: Split,
+    ) -> Result<Vec<TextItem>> {
         if g.text_dir.is_none() && !g.synthetic_text {
             return Ok(Vec::new());
         }
@@ -134,7 +160,12 @@ impl GptFamily {
                             ),
                         ));
                     }
-                    a.data.iter().map(|&v| v as f32).collect()
+                    let v: Vec<f32> = a.data.iter().map(|&v| v as f32).collect();
+                    if g.text_l2_normalise {
+                        qean_aistpp::text_set::l2_normalised(&v)
+                    } else {
+                        v
+                    }
                 }
                 None => match qean_aistpp::names::genre_of(&name) {
                     Some(genre) => genre_embedding(genre, g.text_dim),
@@ -159,13 +190,38 @@ impl GptFamily {
                 codes,
             });
         }
-        if items.is_empty() {
-            return Err(Error::at(
-                &dataset.root,
-                "text steps are configured (gpt.text_dir or gpt.synthetic_text) but no training sequence has a text embedding",
-            ));
+        Ok(items)
+    }
+
+    /// Text items of a HumanML3D-layout set (SPEC §13.1): one per caption, its slice of the motion as
+    /// 24 joints at 60 fps, tokenised.
+    fn text_set_items(&self, g: &GptConfig, root: &Path) -> Result<Vec<TextItem>> {
+        let vq = self.vq.as_ref().expect("the VQ-VAE is loaded first");
+        let set = qean_aistpp::text_set::TextSet::open(root, &g.text_split)?;
+        let opts = qean_aistpp::text_set::TextSetOptions {
+            fps: g.text_fps,
+            dim: g.text_dim,
+            l2_normalise: g.text_l2_normalise,
+            rate: g.rate,
+        };
+        let bar = qean_checkpoint::progress::bar(set.ids.len() as u64, "text set", "motions");
+        let mut items = Vec::new();
+        for id in &set.ids {
+            for clip in set.clips(id, &opts)? {
+                let frames = clip.joints.len() / qean_motion::skeleton::NUM_JOINTS;
+                let n = (frames / g.rate).min(g.window + 1);
+                let codes = vq
+                    .tokens_of_joints(&clip.joints, n * g.rate)
+                    .map_err(|e| Error::msg(format!("{}: {id}: {e}", root.display())))?;
+                items.push(TextItem {
+                    name: format!("{id}#{}", clip.line),
+                    embedding: clip.embedding,
+                    codes,
+                });
+            }
+            bar.inc(1);
         }
-        tracing::info!("text steps: {} (embedding, motion) pairs", items.len());
+        bar.finish_and_clear();
         Ok(items)
     }
 
@@ -503,6 +559,7 @@ impl Family for GptFamily {
             spec,
             sequences,
             skipped,
+            visits: Vec::new(),
         })
     }
 

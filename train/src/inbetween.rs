@@ -146,6 +146,7 @@ pub fn measure_windows(whole: SequenceSet, c: &InbetweenConfig) -> Result<Sequen
         audio_dim: MUSIC_DIM,
         spec: segment_spec(c.max_len),
         sequences,
+        visits: Vec::new(),
         ..whole
     })
 }

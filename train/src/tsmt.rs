@@ -123,7 +123,11 @@ pub fn coarsened(set: SequenceSet, step: usize, offsets: usize) -> SequenceSet {
             });
         }
     }
-    SequenceSet { sequences, ..set }
+    SequenceSet {
+        sequences,
+        visits: Vec::new(),
+        ..set
+    }
 }
 
 /// `tsmt.windows = "segments"` (the reference's training unit): every sequence cut into blocks of
@@ -152,7 +156,11 @@ pub fn segmented(set: SequenceSet) -> SequenceSet {
         set.sequences.len(),
         sequences.len()
     );
-    SequenceSet { sequences, ..set }
+    SequenceSet {
+        sequences,
+        visits: Vec::new(),
+        ..set
+    }
 }
 
 /// The `[tsmt]` table of a TSMT run.
@@ -388,6 +396,7 @@ mod tests {
                 audio_frames: frames + 5,
             }],
             skipped: vec![],
+            visits: vec![],
         };
         let seg = segmented(set.clone());
         // Starts 0, 5, ..., 25 (25 + 11 ≤ 40; 30 + 11 > 40).
@@ -428,6 +437,7 @@ mod tests {
                 audio_frames: frames,
             }],
             skipped: vec![],
+            visits: vec![],
         };
         let shifted = coarsened(set.clone(), 3, 3);
         let c = coarsened(set, 3, 1);

@@ -8,14 +8,14 @@ use std::sync::Mutex;
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::feature_cache;
-use qean_aistpp::windows::{Batch, SequenceSet, WindowSpec};
+use qean_aistpp::windows::{Batch, Sequence, SequenceSet, WindowSpec};
 use qean_config::run::RunConfig;
-use qean_config::vqvae::{Quantizer, ResetSource, VqConfig, VqLoss, VqNormalise};
+use qean_config::vqvae::{Quantizer, ResetSource, TextBalance, VqConfig, VqLoss, VqNormalise};
 use qean_io::error::{Error, Result};
 use qean_models::vqvae::quantize::{assign, ChaChaEma, EmaCodebook, EmaOptions};
 use qean_models::vqvae::VqVae;
 use qean_motion::motion::{Layout, Motion};
-use qean_motion::pos72::POS72;
+use qean_motion::pos72::{joints_to_pos72_f32, POS72};
 use rand::{Rng, SeedableRng};
 
 use crate::family::{Family, StepContext};
@@ -26,6 +26,8 @@ use qean_checkpoint::vqvae::{motion_pos72, normalise};
 #[derive(Debug, Default)]
 pub struct VqFamily {
     pending: Mutex<Option<EmaCodebook>>,
+    /// The training split (set by `prepare`): the one a text set joins.
+    train: Option<Split>,
 }
 
 /// A batch as the model reads it.
@@ -41,14 +43,77 @@ pub fn vq_of(config: &RunConfig) -> &VqConfig {
     config.vq_table()
 }
 
-/// Per-channel mean and SD (ddof 0) of the training split's pos72 frames.
+/// Per-channel mean and SD (ddof 0) of the training split's pos72 frames (with the text set's motions).
 fn pos72_stats(ds: &Dataset, split: Split, c: &VqConfig) -> Result<(Vec<f64>, Vec<f64>)> {
     let mut stats = crate::data::ColumnStats::new(POS72);
     for name in ds.split(split) {
         let rows = motion_pos72(&Motion::read_pkl(&ds.motion_path(&name))?, c);
         rows.chunks_exact(POS72).for_each(|r| stats.add(r));
     }
+    for (_, rows) in text_motions(c)? {
+        rows.chunks_exact(POS72).for_each(|r| stats.add(r));
+    }
     Ok(stats.mean_std())
+}
+
+/// The pos72 rows of every motion of `vq.text_set`'s `text_split` (none without a text set), by id.
+fn text_motions(c: &VqConfig) -> Result<Vec<(String, Vec<f32>)>> {
+    let Some(root) = &c.text_set else {
+        return Ok(Vec::new());
+    };
+    let set = qean_aistpp::text_set::TextSet::open(root, &c.text_split)?;
+    let opts = qean_checkpoint::vqvae::pos72_options(c);
+    set.ids
+        .iter()
+        .map(|id| {
+            let joints = set.joints(id, c.text_fps)?;
+            Ok((id.clone(), joints_to_pos72_f32(&joints, &opts)))
+        })
+        .collect()
+}
+
+/// `set` (AIST++ training windows) joined by the text set's motions, each a sequence without music,
+/// balanced by `vq.text_balance` (SPEC §13.2.5).
+fn with_text_set(mut set: SequenceSet, c: &VqConfig) -> Result<SequenceSet> {
+    let music = set.sequences.len();
+    let silent = std::sync::Arc::new(Vec::new());
+    let mut short = 0;
+    for (id, rows) in text_motions(c)? {
+        let frames = rows.len() / POS72;
+        if set.spec.starts(frames) == 0 {
+            short += 1;
+            continue;
+        }
+        set.sequences.push(Sequence {
+            name: format!("text:{id}"),
+            motion: rows,
+            motion_frames: frames,
+            audio: silent.clone(),
+            audio_frames: frames,
+        });
+    }
+    let text = set.sequences.len() - music;
+    if text == 0 {
+        return Err(Error::at(
+            c.text_set.as_deref().unwrap_or(std::path::Path::new("")),
+            format!(
+                "no motion of the text set is as long as a {}-frame window",
+                set.spec.span()
+            ),
+        ));
+    }
+    let (m, t) = match c.text_balance {
+        TextBalance::Proportional => (1, 1),
+        TextBalance::Equal if text > music => ((text as f64 / music as f64).round() as usize, 1),
+        TextBalance::Equal => (1, (music as f64 / text as f64).round() as usize),
+    };
+    set.visits = (0..set.sequences.len())
+        .map(|i| if i < music { m } else { t })
+        .collect();
+    tracing::info!(
+        "text set: {text} motions join {music} AIST++ sequences ({short} shorter than a window left out); each epoch visits them {t}× and {m}×"
+    );
+    Ok(set)
 }
 
 /// A rotation about y by a random angle of every window's positions and velocities (`yaw_augment`).
@@ -141,6 +206,7 @@ impl Family for VqFamily {
             .vq
             .as_mut()
             .ok_or_else(|| Error::msg("model.arch = \"vqvae\" needs a [vq] table"))?;
+        self.train = Some(train);
         if c.normalise == VqNormalise::Zscore {
             if let Some(saved) = resume.and_then(|ck| ck.config.vq.clone()) {
                 c.mean = saved.mean;
@@ -155,7 +221,7 @@ impl Family for VqFamily {
         c.validate().map_err(Error::msg)
     }
 
-    /// Windows of pos72 rows; no music.
+    /// Windows of pos72 rows; no music. The training split is joined by `vq.text_set`'s motions.
     fn load_set(
         &self,
         dataset: &Dataset,
@@ -168,7 +234,7 @@ impl Family for VqFamily {
         let set = SequenceSet::load(dataset, split, Layout::L219, spec, |id| {
             feature_cache::load(dataset, id)
         })?;
-        set.remap(
+        let set = set.remap(
             POS72,
             0,
             |seq| {
@@ -178,14 +244,18 @@ impl Family for VqFamily {
                 Ok(rows)
             },
             |_, _| Vec::new(),
-        )
+        )?;
+        if c.text_set.is_some() && self.train == Some(split) {
+            return with_text_set(set, c);
+        }
+        Ok(set)
     }
 
     fn inputs(&self, drawn: Batch, _model: &VqVae, device: &Device, ctx: &StepContext) -> VqInputs {
         let c = vq_of(ctx.config);
         let (b, t) = (drawn.len(), drawn.spec.motion_len);
         let mut rows = drawn.motion;
-        if c.yaw_augment {
+        if c.yaw() {
             yaw(&mut rows, t, ctx.rng_seed);
         }
         normalise(&mut rows, c);
