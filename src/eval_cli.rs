@@ -148,6 +148,17 @@ pub struct Args {
     /// confusion) and per-genre FID; writes R/eval/step-N/control.{json,md}.
     #[arg(long, requires = "run")]
     pub classifier: Option<PathBuf>,
+    /// Checkpoint mode, GPT runs with a trained T-Base: the text evaluation (SPEC §13.10) on a text–motion
+    /// set in the HumanML3D layout (with text_emb/<id>.npy embeddings): each dance with the next caption of
+    /// --text-split over --text-interval, fused and as a pure T-Base rollout; writes R/eval/step-N/text.{json,md}.
+    #[arg(long, requires = "run", conflicts_with = "classifier")]
+    pub text_set: Option<PathBuf>,
+    /// With --text-set: the split file whose captions are the prompts.
+    #[arg(long, default_value = "test", requires = "text_set")]
+    pub text_split: String,
+    /// With --text-set: the interval in seconds of the dance (seed included).
+    #[arg(long, default_value = "4.0..8.0", requires = "text_set")]
+    pub text_interval: String,
     /// Directory of the music, <music ID>.wav (or .ogg/.mp3/.flac); beats tracked from the audio as
     /// --ba-music-beats says. Names without an AIST++ music ID need --pairing (or NAME.music).
     #[arg(long, conflicts_with = "beats")]
@@ -368,10 +379,25 @@ pub fn run_eval(args: &Args) -> anyhow::Result<String> {
     match &args.run {
         Some(run) => {
             let req = args.run_request(run)?;
-            Ok(qean_pipeline::evaluate::evaluate_family(
-                &req,
-                args.classifier.as_deref(),
-            )?)
+            let text = match &args.text_set {
+                Some(dir) => {
+                    let (from_s, to_s) =
+                        qean_pipeline::gpt::TextRequest::interval(&args.text_interval)
+                            .map_err(|e| anyhow::anyhow!("--text-interval {e}"))?;
+                    Some(qean_pipeline::text_quality::TextEvalOptions {
+                        text_set: dir.clone(),
+                        split: args.text_split.clone(),
+                        from_s,
+                        to_s,
+                    })
+                }
+                None => None,
+            };
+            let tests = qean_pipeline::evaluate::FamilyTests {
+                classifier: args.classifier.clone(),
+                text,
+            };
+            Ok(qean_pipeline::evaluate::evaluate_family(&req, &tests)?)
         }
         None => Ok(evaluate_dirs(&args.dir_request()?)?.1),
     }

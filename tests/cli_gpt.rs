@@ -785,6 +785,45 @@ fn text_steps_alternate_with_music_steps_and_leave_the_idle_base_alone() {
         );
     }
 
+    // The text evaluation (SPEC §13.10) with the set's test captions: three sets of dances, the distances.
+    let mut c = qean();
+    c.args([
+        "eval",
+        "--max-frames",
+        "240",
+        "--text-interval",
+        "2.5..3.5",
+        "--run",
+    ])
+    .arg(&straight)
+    .arg("--data")
+    .arg(&data)
+    .arg("--text-set")
+    .arg(&text_set);
+    let out = run_ok(&mut c);
+    assert!(out.contains("| fused (the run's schedule) |"), "{out}");
+    let report: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(straight.join("eval/step-3/text.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(report["prompts"], 2, "{report}");
+    assert!(report["dances"].as_u64().unwrap() > 0, "{report}");
+    for key in ["fused_to_text_only", "plain_to_text_only"] {
+        assert!(report[key].as_f64().unwrap().is_finite(), "{report}");
+    }
+    assert!(
+        report["plain_to_text_only"].as_f64().unwrap() > 0.0,
+        "{report}"
+    );
+    let mut c = qean();
+    c.args(["eval", "--text-interval", "3.5..2.5", "--run"])
+        .arg(&straight)
+        .arg("--data")
+        .arg(&data)
+        .arg("--text-set")
+        .arg(&text_set);
+    assert_clean_failure(&mut c, "the interval is empty or reversed");
+
     // A broken text set: one line naming the file, no run directory.
     let broken = dir.path().join("broken_set");
     std::fs::create_dir(&broken).unwrap();

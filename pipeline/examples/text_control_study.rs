@@ -15,7 +15,7 @@ use qean_eval::run_report::SeedStart;
 use qean_motion::motion::Motion;
 use qean_pipeline::generate::{load_song, seed_clip, SeedSource};
 use qean_pipeline::genre_clf::TrainedClf;
-use qean_pipeline::gpt::{Controls, GptRun, Picking, PickingOverrides, TextRequest};
+use qean_pipeline::gpt::{Controls, GptRun, Picking, PickingOverrides, TextEmbedding, TextRequest};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -49,7 +49,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for requested in 0..=GENRES.len() {
             let text: Vec<TextRequest> = (requested > 0)
                 .then(|| TextRequest {
-                    embedding: format!("genre:{}", GENRES[requested - 1]),
+                    embedding: TextEmbedding::Named(format!("genre:{}", GENRES[requested - 1])),
                     from_s,
                     to_s,
                 })

@@ -151,12 +151,15 @@ pub struct RunEvaluation {
 }
 
 /// Checkpoint mode for any family: the VQ-VAE's reconstruction report, the genre classifier's accuracy,
-/// genre control's control test (with the judge `classifier`), keyframe control's fidelity test, or the
-/// dance metrics of the rest; returns
+/// genre control's control test (with the judge `classifier`), keyframe control's fidelity test, the
+/// text evaluation (`tests.text`), or the dance metrics of the rest; returns
 /// the markdown to print.
-pub fn evaluate_family(req: &RunEvalRequest, classifier: Option<&Path>) -> Result<String> {
+pub fn evaluate_family(req: &RunEvalRequest, tests: &FamilyTests) -> Result<String> {
     let ck = qean_checkpoint::checkpoint::resolve_in_run(&req.run, req.checkpoint.as_deref())?;
-    match (ck.config.spec(), classifier) {
+    if let Some(text) = &tests.text {
+        return Ok(crate::text_quality::text_quality(req, text)?.1);
+    }
+    match (ck.config.spec(), tests.classifier.as_deref()) {
         (ModelSpec::Vqvae(_), _) => Ok(crate::vqvae::evaluate_vq(req)?.1),
         (ModelSpec::GenreClf(_), _) => Ok(crate::genre_clf::evaluate_clf(req)?.1),
         (ModelSpec::GptKeyframe(..), None) => {
@@ -165,6 +168,15 @@ pub fn evaluate_family(req: &RunEvalRequest, classifier: Option<&Path>) -> Resul
         (_, Some(clf)) => Ok(crate::genre_control::control_test(req, clf)?.1),
         _ => Ok(evaluate_run(req)?.table),
     }
+}
+
+/// The family-specific tests `qean eval --run` may be asked for instead of the dance metrics.
+#[derive(Debug, Clone, Default)]
+pub struct FamilyTests {
+    /// Genre-control runs: the control test with this genre classifier run.
+    pub classifier: Option<PathBuf>,
+    /// GPT runs with a trained T-Base: the text evaluation on this text set.
+    pub text: Option<crate::text_quality::TextEvalOptions>,
 }
 
 /// Runs checkpoint mode.

@@ -165,9 +165,27 @@ impl GenreChoice {
 /// of the output dance in seconds, seed included.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TextRequest {
-    pub embedding: String,
+    pub embedding: TextEmbedding,
     pub from_s: f64,
     pub to_s: f64,
+}
+
+impl std::fmt::Display for TextEmbedding {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            TextEmbedding::Named(name) => f.write_str(name),
+            TextEmbedding::Values(v) => write!(f, "({} values)", v.len()),
+        }
+    }
+}
+
+/// Where a text control's embedding comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TextEmbedding {
+    /// `--text-embedding`: a `.npy` path or `genre:XX`.
+    Named(String),
+    /// Values already read (a caption's row of a text set), `gpt.text_dim` of them.
+    Values(Vec<f32>),
 }
 
 /// A text control on the token grid: the embedding and the tokens [start, end) it covers.
@@ -194,7 +212,7 @@ impl TextRequest {
             let (from_s, to_s) =
                 Self::interval(interval).map_err(|e| Error::msg(format!("--text-interval {e}")))?;
             out.push(TextRequest {
-                embedding: embedding.clone(),
+                embedding: TextEmbedding::Named(embedding.clone()),
                 from_s,
                 to_s,
             });
@@ -232,11 +250,21 @@ impl TextRequest {
     /// T-Base was trained).
     fn embedding(&self, g: &GptConfig) -> Result<Vec<f32>> {
         let dim = g.text_dim;
-        if let Some(code) = self.embedding.strip_prefix("genre:") {
+        let name = match &self.embedding {
+            TextEmbedding::Named(name) => name,
+            TextEmbedding::Values(v) if v.len() == dim => return Ok(v.clone()),
+            TextEmbedding::Values(v) => {
+                return Err(Error::msg(format!(
+                    "a text embedding of {} values; this GPT's T-Base takes gpt.text_dim = {dim}",
+                    v.len()
+                )))
+            }
+        };
+        if let Some(code) = name.strip_prefix("genre:") {
             let genre = GenreChoice::parse(code, 0)?.genre;
             return Ok(qean_checkpoint::gpt::genre_embedding(genre, dim));
         }
-        let path = Path::new(&self.embedding);
+        let path = Path::new(name);
         let a = qean_io::npy::read(path)?;
         if a.data.len() != dim {
             return Err(Error::at(

@@ -35,6 +35,13 @@ pub struct SetFidelity {
     /// Mean |acceleration| over the re-predicted spans' frames relative to the rest of the generated
     /// frames, averaged over dances (1: as smooth as the rest).
     pub seam_accel_ratio: f64,
+    #[serde(flatten)]
+    pub quality: SetQuality,
+}
+
+/// Whether a set of dances dances, and its §7 distance to the ground truth.
+#[derive(Debug, Clone, Serialize, Default)]
+pub struct SetQuality {
     /// Dances with every 5-s span at 0.6–1.6× the speed and ≤ 2× the acceleration of the ground truth.
     pub dancing: usize,
     pub min_span_speed_ratio: f64,
@@ -42,6 +49,36 @@ pub struct SetFidelity {
     /// §7 against the ground truth (all splits), the generated frames only.
     pub fid_k: f64,
     pub fid_g: f64,
+}
+
+/// [`SetQuality`] of `dances` (generated frames only) against `reference`.
+pub(crate) fn set_quality(
+    dances: &[Sequence],
+    reference: &[Sequence],
+    req: &RunEvalRequest,
+) -> Result<SetQuality> {
+    let yardstick = EnergyReference::fit(reference.iter().map(|s| s.joints.as_slice()));
+    let (each, _) = motion_energy(dances.iter().map(|s| s.joints.as_slice()), &yardstick);
+    let spans = || each.iter().flat_map(|e| e.spans.iter());
+    let base = req.configs.first().cloned().unwrap_or_default();
+    let cfg = EvalConfig {
+        seed_frames: 0,
+        music_offset: 0,
+        max_frames: req.max_frames,
+        ..base
+    };
+    let (fid_k, fid_g) = if dances.len() >= 2 {
+        qean_eval::protocol::fid_within(dances, reference, reference, &cfg)?
+    } else {
+        (f64::NAN, f64::NAN)
+    };
+    Ok(SetQuality {
+        dancing: each.iter().filter(|e| e.dances()).count(),
+        min_span_speed_ratio: spans().map(|s| s.speed_ratio).fold(f64::INFINITY, f64::min),
+        max_span_accel_ratio: spans().map(|s| s.accel_ratio).fold(0.0, f64::max),
+        fid_k,
+        fid_g,
+    })
 }
 
 /// The keyframe fidelity report.
@@ -244,31 +281,12 @@ fn summarise(set: &[Scored], reference: &[Sequence], req: &RunEvalRequest) -> Re
         let (sum, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
         sum / n.max(1) as f64
     };
-    let yardstick = EnergyReference::fit(reference.iter().map(|s| s.joints.as_slice()));
-    let (each, _) = motion_energy(set.iter().map(|s| s.sequence.joints.as_slice()), &yardstick);
-    let spans = || each.iter().flat_map(|e| e.spans.iter());
     let dances: Vec<Sequence> = set.iter().map(|s| s.sequence.clone()).collect();
-    let base = req.configs.first().cloned().unwrap_or_default();
-    let cfg = EvalConfig {
-        seed_frames: 0,
-        music_offset: 0,
-        max_frames: req.max_frames,
-        ..base
-    };
-    let (fid_k, fid_g) = if dances.len() >= 2 {
-        qean_eval::protocol::fid_within(&dances, reference, reference, &cfg)?
-    } else {
-        (f64::NAN, f64::NAN)
-    };
     Ok(SetFidelity {
         kf_mpjpe: mean(&mut errors.iter().map(|e| e.0)),
         kf_mpjpe_min: mean(&mut errors.iter().map(|e| e.1)),
         seam_accel_ratio: mean(&mut set.iter().filter_map(|s| s.seam)),
-        dancing: each.iter().filter(|e| e.dances()).count(),
-        min_span_speed_ratio: spans().map(|s| s.speed_ratio).fold(f64::INFINITY, f64::min),
-        max_span_accel_ratio: spans().map(|s| s.accel_ratio).fold(0.0, f64::max),
-        fid_k,
-        fid_g,
+        quality: set_quality(&dances, reference, req)?,
     })
 }
 
@@ -279,12 +297,12 @@ fn markdown(r: &FidelityReport) -> String {
             100.0 * s.kf_mpjpe,
             100.0 * s.kf_mpjpe_min,
             s.seam_accel_ratio,
-            s.dancing,
+            s.quality.dancing,
             r.dances,
-            s.min_span_speed_ratio,
-            s.max_span_accel_ratio,
-            s.fid_k,
-            s.fid_g
+            s.quality.min_span_speed_ratio,
+            s.quality.max_span_accel_ratio,
+            s.quality.fid_k,
+            s.quality.fid_g
         )
     };
     let ratio = r.edited.kf_mpjpe / r.plain.kf_mpjpe.max(1e-12);

@@ -21,6 +21,7 @@ pub mod keyframe_control;
 pub mod keyframe_fidelity;
 pub mod keyframe_settings;
 pub mod keyframes;
+pub mod text_quality;
 pub mod tsmt;
 pub mod view;
 pub mod vqvae;

@@ -117,9 +117,9 @@ pub fn table(k: &KeyframeDemo) -> String {
         f.warp_frames,
         100.0 * f.plain.kf_mpjpe,
         ratio,
-        f.edited.dancing,
+        f.edited.quality.dancing,
         f.dances,
-        f.plain.dancing,
+        f.plain.quality.dancing,
         f.edited.seam_accel_ratio,
         k.report_md.display()
     )
