@@ -996,6 +996,25 @@ fn keyframe_stage_trains_resumes_exactly_and_edits_around_the_keyframe() {
         "the JSON keyframe is the motion's frame"
     );
 
+    // keyframe.weights = "full_copy" (SPEC §13.6 option): a copy of the whole M-Base and head trains, the
+    // GPT stays frozen, and the keyframe edits the dance after its masked span only.
+    let full = dir.path().join("kf_full");
+    let mut sets = kf_sets(2, &gpt);
+    sets.push("keyframe.weights=\"full_copy\"".into());
+    train(cfg, &data, &full, &sets, false);
+    let inside_full: Vec<(String, Vec<f32>)> = named(&last(&full), "gpt.")
+        .into_iter()
+        .map(|p| (p.name, p.values))
+        .collect();
+    assert_eq!(frozen, inside_full);
+    assert!(!named(&last(&full), "keyframe.full.m_base.blocks").is_empty());
+    assert!(named(&last(&full), "keyframe.m_attn").is_empty());
+    let full_keyed = dir.path().join("kf_full_keyed");
+    run_ok(&mut sample(&full, &full_keyed, &key));
+    let c = joints(&full_keyed);
+    assert_eq!(a[..250 * frame], c[..250 * frame]);
+    assert_ne!(a, c, "the full copy's keyframe changed nothing");
+
     // Bad inputs: one line each, nothing written.
     let bad = dir.path().join("bad_kf");
     let frames = |f: &str| -> Vec<String> {

@@ -100,9 +100,10 @@ impl Checkpoint {
             ModelSpec::GenreClf(c) => {
                 FamilyModel::GenreClf(load_weights(GenreClassifier::new(c, device), &path)?)
             }
-            ModelSpec::GptKeyframe(g, _) => {
-                FamilyModel::GptKeyframe(load_weights(KeyframeGpt::new(g, device), &path)?)
-            }
+            ModelSpec::GptKeyframe(g, k) => FamilyModel::GptKeyframe(load_weights(
+                KeyframeGpt::new(g, k.weights, device),
+                &path,
+            )?),
         })
     }
 

@@ -17,6 +17,18 @@ pub enum KfTrainMask {
     Mixed,
 }
 
+/// What the keyframe module holds (SPEC §13.6 `keyframe.weights`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum KfWeights {
+    /// Copies of the q, k, v and output projections of every M-Base and head block; the GPT's LNs, MLPs,
+    /// embeddings and logits are used as they are (`attn_only`).
+    #[default]
+    AttnOnly,
+    /// A copy of the whole M-Base and head (embeddings, blocks, final LN and logits), all trained.
+    FullCopy,
+}
+
 /// How a keyframe pose becomes a token.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -48,6 +60,8 @@ pub struct KeyframeConfig {
     /// The trained music-to-dance GPT run (its newest checkpoint) this stage edits;
     /// `--set keyframe.gpt_run=DIR` overrides it.
     pub gpt_run: Option<std::path::PathBuf>,
+    /// What the trained module copies from the GPT.
+    pub weights: KfWeights,
     /// How a keyframe pose becomes its token at sampling (training's centres take static-clip tokens).
     pub tokenize: KfTokenize,
     /// Tokens re-predicted on each side of a keyframe (k = 6 [READ]).
@@ -70,6 +84,7 @@ impl Default for KeyframeConfig {
     fn default() -> Self {
         KeyframeConfig {
             gpt_run: None,
+            weights: KfWeights::AttnOnly,
             tokenize: KfTokenize::StaticClip,
             radius: 6,
             max_centres: 2,

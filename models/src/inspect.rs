@@ -92,14 +92,23 @@ fn family_summary(run: &RunConfig, path: &Path) -> Result<(usize, String), Confi
             (params, summary)
         }
         ModelSpec::GptKeyframe(g, k) => {
-            let model = crate::control::keyframe::KeyframeGpt::new(g, &device);
+            let model = crate::control::keyframe::KeyframeGpt::new(g, k.weights, &device);
             let params = model.keyframe.num_params();
+            let copies = match k.weights {
+                qean_config::keyframe::KfWeights::AttnOnly => format!(
+                    "attention copies of {} M-Base + {} head blocks, (L_b + L_h)·4(D² + D) = {} (§13.9)",
+                    g.base_layers,
+                    g.head_layers,
+                    group_digits(crate::control::keyframe::keyframe_params(g))
+                ),
+                qean_config::keyframe::KfWeights::FullCopy => format!(
+                    "a full copy of the M-Base and head (keyframe.weights = full_copy) = {}",
+                    group_digits(model.gpt.m_base.num_params() + model.gpt.head.num_params())
+                ),
+            };
             let summary = format!(
-                "{}  keyframe module (trained; the GPT above is frozen): attention copies of {} M-Base + {} head blocks, (L_b + L_h)·4(D² + D) = {} (§13.9), + the Mask row {} = {}\n  mask attention (every position sees every other), k = {}, {:?} masks of ≤ {} centres, decode {:?}\n",
+                "{}  keyframe module (trained; the GPT above is frozen): {copies}, + the Mask row {} = {}\n  mask attention (every position sees every other), k = {}, {:?} masks of ≤ {} centres, decode {:?}\n",
                 gpt_summary(g, &model.gpt, Some(path)),
-                g.base_layers,
-                g.head_layers,
-                group_digits(crate::control::keyframe::keyframe_params(g)),
                 g.hidden,
                 group_digits(params),
                 k.radius,

@@ -193,10 +193,11 @@ impl Family for KeyframeFamily {
 
     /// The GPT from `keyframe.gpt_run` (frozen: no gradients) and the module copied from it.
     fn init(&self, config: &RunConfig, device: &Device) -> Result<KeyframeGpt> {
-        let mut model = KeyframeGpt::new(gpt_of(config), device);
+        let weights = keyframe_of(config).weights;
+        let mut model = KeyframeGpt::new(gpt_of(config), weights, device);
         if let Some(frozen) = &self.gpt {
             let gpt = frozen.load(device)?;
-            model.keyframe = KeyframeModule::of(&gpt);
+            model.keyframe = KeyframeModule::of(&gpt, weights);
             model.gpt = gpt.no_grad();
         }
         Ok(model)

@@ -3,15 +3,17 @@
 //! that sees the future (mask attention) with the re-predicted positions masked. This file holds the index
 //! arithmetic, the static clip a pose is tokenised from, the re-prediction loop over any predictor, and the
 //! keyframe module: per-layer copies of the attention projections of every M-Base and head block (§13.3.5
-//! `mask`, `keyframe.weights = attn_only`) and the M-Base's Mask row, trained in stage 3b over a frozen GPT.
+//! `mask`, `keyframe.weights = attn_only`) or a copy of the whole M-Base and head (`full_copy`), and the
+//! M-Base's Mask row, trained in stage 3b over a frozen GPT.
 
-use burn::module::{Module, Param};
+use burn::module::{Module, ModuleMapper, Param};
 use burn::nn::Linear;
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use qean_config::gpt::GptConfig;
+use qean_config::keyframe::KfWeights;
 use qean_motion::pos72::{joints_to_pos72, Pos72Options};
 
-use crate::control::gpt::{Block, Gpt};
+use crate::control::gpt::{Block, Gpt, Head, MBase};
 
 /// Tokens re-predicted on each side of a keyframe (k = 6 [READ]).
 pub const RADIUS: usize = 6;
@@ -172,25 +174,72 @@ impl AttnCopy {
     }
 }
 
-/// The keyframe module (stage 3b's trainable part): an [`AttnCopy`] per M-Base block and per head block,
-/// and the Mask row of the M-Base's token table ([D]).
+/// Every float parameter replaced by a new leaf holding its values ([`leaf`]).
+struct Fresh;
+
+impl ModuleMapper for Fresh {
+    fn map_float<const D: usize>(&mut self, param: Param<Tensor<D>>) -> Param<Tensor<D>> {
+        leaf(param.val())
+    }
+}
+
+/// `keyframe.weights = full_copy`: the whole M-Base and head, copied.
+#[derive(Module, Debug)]
+pub struct FullCopy {
+    pub m_base: MBase,
+    pub head: Head,
+}
+
+/// The keyframe module (stage 3b's trainable part): an [`AttnCopy`] per M-Base block and per head block
+/// (`attn_only`) or a [`FullCopy`] (`full_copy`, the copy lists then empty), and the Mask row of the
+/// M-Base's token table ([D]).
 #[derive(Module, Debug)]
 pub struct KeyframeModule {
     pub m_attn: Vec<AttnCopy>,
     pub head_attn: Vec<AttnCopy>,
     pub mask_row: Param<Tensor<1>>,
+    pub full: Option<FullCopy>,
 }
 
 impl KeyframeModule {
-    /// Copies of `gpt`'s attention projections and Mask row.
-    pub fn of(gpt: &Gpt) -> KeyframeModule {
+    /// Copies of `gpt`'s attention projections (or of its whole M-Base and head) and Mask row.
+    pub fn of(gpt: &Gpt, weights: KfWeights) -> KeyframeModule {
         let table = gpt.m_base.tokens.weight.val();
         let [rows, d] = table.dims();
-        KeyframeModule {
-            m_attn: gpt.m_base.blocks.iter().map(AttnCopy::of).collect(),
-            head_attn: gpt.head.blocks.iter().map(AttnCopy::of).collect(),
-            mask_row: leaf(table.narrow(0, rows - 1, 1).reshape([d])),
+        let mask_row = leaf(table.narrow(0, rows - 1, 1).reshape([d]));
+        match weights {
+            KfWeights::AttnOnly => KeyframeModule {
+                m_attn: gpt.m_base.blocks.iter().map(AttnCopy::of).collect(),
+                head_attn: gpt.head.blocks.iter().map(AttnCopy::of).collect(),
+                mask_row,
+                full: None,
+            },
+            KfWeights::FullCopy => KeyframeModule {
+                m_attn: Vec::new(),
+                head_attn: Vec::new(),
+                mask_row,
+                full: Some(FullCopy {
+                    m_base: gpt.m_base.clone().map(&mut Fresh),
+                    head: gpt.head.clone().map(&mut Fresh),
+                }),
+            },
         }
+    }
+
+    /// The M-Base and head mask mode runs through: the module's full copy, or the GPT's own.
+    fn bases<'a>(&'a self, gpt: &'a Gpt) -> (&'a MBase, &'a Head) {
+        match &self.full {
+            Some(f) => (&f.m_base, &f.head),
+            None => (&gpt.m_base, &gpt.head),
+        }
+    }
+}
+
+/// The projections block `i` attends through: the module's copy, or (full copy) the block's own.
+fn projections<'a>(copies: &'a [AttnCopy], i: usize, block: &'a Block) -> [&'a Linear; 4] {
+    match copies.get(i) {
+        Some(c) => c.linears(),
+        None => [&block.query, &block.key, &block.value, &block.proj],
     }
 }
 
@@ -204,9 +253,9 @@ pub struct KeyframeGpt {
 impl KeyframeGpt {
     /// A fresh GPT and a module copied from it (training replaces the GPT by the frozen one and copies
     /// again: see `train::keyframe`).
-    pub fn new(g: &GptConfig, device: &Device) -> KeyframeGpt {
+    pub fn new(g: &GptConfig, weights: KfWeights, device: &Device) -> KeyframeGpt {
         let gpt = Gpt::new(g, device);
-        let keyframe = KeyframeModule::of(&gpt);
+        let keyframe = KeyframeModule::of(&gpt, weights);
         KeyframeGpt { gpt, keyframe }
     }
 }
@@ -225,7 +274,7 @@ pub fn mask_logits(
     tokens: Tensor<2, Int>,
     music: Tensor<3>,
 ) -> Tensor<3> {
-    let mb = &gpt.m_base;
+    let (mb, head) = module.bases(gpt);
     let [b, n] = tokens.dims();
     let device = music.device();
     let [rows, d] = mb.tokens.weight.dims();
@@ -244,19 +293,23 @@ pub fn mask_logits(
     let len = x.dims()[1];
     let everything = Tensor::<4>::zeros([1, 1, len, len], &device);
     x = mb.dropout.forward(x);
-    for (block, copy) in mb.blocks.iter().zip(&module.m_attn) {
-        x = block.attend_through(x, everything.clone(), copy.linears());
+    for (i, block) in mb.blocks.iter().enumerate() {
+        x = block.attend_through(x, everything.clone(), projections(&module.m_attn, i, block));
         x = block.feed_forward(x);
     }
     if mb.two_stream() {
         x = x.narrow(1, n, n);
     }
     let everything = Tensor::<4>::zeros([1, 1, n, n], &device);
-    for (block, copy) in gpt.head.blocks.iter().zip(&module.head_attn) {
-        x = block.attend_through(x, everything.clone(), copy.linears());
+    for (i, block) in head.blocks.iter().enumerate() {
+        x = block.attend_through(
+            x,
+            everything.clone(),
+            projections(&module.head_attn, i, block),
+        );
         x = block.feed_forward(x);
     }
-    gpt.head.logits.forward(gpt.head.ln.forward(x))
+    head.logits.forward(head.ln.forward(x))
 }
 
 /// One window's picks (§13.6 "Inference" 3–4): `inputs` with None at the masked positions, `music` its
@@ -457,7 +510,7 @@ mod tests {
             dropout: 0.0,
             ..GptConfig::tiny()
         };
-        let model = KeyframeGpt::new(&g, &device);
+        let model = KeyframeGpt::new(&g, KfWeights::AttnOnly, &device);
         assert_eq!(model.keyframe.num_params(), keyframe_params(&g) + g.hidden);
         assert_eq!(keyframe_params(&GptConfig::tiny()), 66_560);
         assert_eq!(keyframe_params(&GptConfig::paper()), 28_348_416);
@@ -493,13 +546,42 @@ mod tests {
         assert!(earlier > 0.0, "position 2 does not see token 12");
     }
 
+    /// `keyframe.weights = full_copy`: the module holds the whole M-Base and head under new ids (and the
+    /// Mask row), no attention copies, and starts with the same mask-mode logits as the attention copies.
+    #[test]
+    fn a_full_copy_starts_as_the_attention_copies() {
+        let device = Device::flex();
+        let g = GptConfig {
+            dropout: 0.0,
+            ..GptConfig::tiny()
+        };
+        let attn = KeyframeGpt::new(&g, KfWeights::AttnOnly, &device);
+        let full = KeyframeModule::of(&attn.gpt, KfWeights::FullCopy);
+        let copy = full.full.as_ref().unwrap();
+        assert!(full.m_attn.is_empty() && full.head_attn.is_empty());
+        assert_eq!(
+            full.num_params(),
+            attn.gpt.m_base.num_params() + attn.gpt.head.num_params() + g.hidden
+        );
+        assert_ne!(
+            copy.m_base.blocks[0].fc.weight.id,
+            attn.gpt.m_base.blocks[0].fc.weight.id
+        );
+        assert_ne!(copy.head.logits.weight.id, attn.gpt.head.logits.weight.id);
+        let (t, m) = window_inputs(&g, &device, None);
+        let a = mask_logits(&attn.gpt, &attn.keyframe, t.clone(), m.clone());
+        let b = mask_logits(&attn.gpt, &full, t, m);
+        let diff: f32 = (a - b).abs().max().into_scalar();
+        assert_eq!(diff, 0.0);
+    }
+
     /// A window's picks keep every visible token, fill every masked one with a code (never End), and the
     /// iterative decoding fills them all too.
     #[test]
     fn window_predictions_fill_the_masked_positions_only() {
         let device = Device::flex();
         let g = GptConfig::tiny();
-        let model = KeyframeGpt::new(&g, &device);
+        let model = KeyframeGpt::new(&g, KfWeights::AttnOnly, &device);
         let inputs: Vec<Option<usize>> = (0..g.window)
             .map(|j| (!(4..=9).contains(&j) || j == 6).then_some(j * 3))
             .collect();
