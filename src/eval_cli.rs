@@ -125,6 +125,10 @@ pub struct Args {
     /// default: the run's gpt.slide_window).
     #[arg(long, requires = "run")]
     pub slide_window: Option<usize>,
+    /// Checkpoint mode, GPT: σ in frames of the decoded joints' temporal filter (0 = off; default: the
+    /// run's gpt.smooth_sigma).
+    #[arg(long, requires = "run")]
+    pub smooth_sigma: Option<f64>,
     /// Checkpoint mode, TSMT: seed of the draws (S-music-D's extra rollouts use the next seeds).
     #[arg(long, requires = "run", default_value_t = 0)]
     pub sample_seed: u64,
@@ -336,6 +340,7 @@ impl Args {
                 repetition_penalty: self.repetition_penalty,
                 floor_window: self.floor_window,
                 slide_window: self.slide_window,
+                smooth_sigma: self.smooth_sigma,
                 sample_seed: self.sample_seed,
                 music_rollouts: self.music_rollouts,
             },

@@ -222,6 +222,47 @@ fn tiny_vq_gpt_trains_resumes_and_dances() {
         std::fs::read(out.join("Kevin_MacLeod_-_Vibe_Ace.joints.npy")).unwrap(),
         std::fs::read(again.join("Kevin_MacLeod_-_Vibe_Ace.joints.npy")).unwrap()
     );
+    // The temporal filter (`--smooth-sigma`): the seed stays, the dance after it is calmer.
+    let smooth = dir.path().join("smooth");
+    run_ok(
+        qean()
+            .args(["sample", "--smooth-sigma", "1", "--run"])
+            .arg(&straight)
+            .arg("--music")
+            .arg(&song)
+            .arg("--out")
+            .arg(&smooth),
+    );
+    let calm = qean_io::npy::read(&smooth.join("Kevin_MacLeod_-_Vibe_Ace.joints.npy")).unwrap();
+    let frame = 72;
+    assert_eq!(joints.data[..120 * frame], calm.data[..120 * frame]);
+    let accel = |d: &[f64]| -> f64 {
+        (121..1319)
+            .map(|t| {
+                (0..frame)
+                    .map(|k| {
+                        (d[(t + 1) * frame + k] - 2.0 * d[t * frame + k] + d[(t - 1) * frame + k])
+                            .abs()
+                    })
+                    .sum::<f64>()
+            })
+            .sum()
+    };
+    assert!(
+        accel(&calm.data) < accel(&joints.data),
+        "the filter did not calm the dance"
+    );
+    assert_clean_failure(
+        qean()
+            .args(["sample", "--smooth-sigma", "11", "--run"])
+            .arg(&straight)
+            .arg("--music")
+            .arg(&song)
+            .arg("--out")
+            .arg(dir.path().join("bad_smooth")),
+        "--smooth-sigma must be in [0, 10] frames",
+    );
+    assert!(!dir.path().join("bad_smooth").exists());
 
     // Checkpoint mode: §7 on the decoded dances of the test + val split.
     let table = run_ok(

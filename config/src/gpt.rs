@@ -94,6 +94,9 @@ pub struct GptConfig {
     /// Decoding, ours: the slow glide of the planted feet (the same bias, sideways) taken away over windows
     /// of this many frames (0 = off, the paper's decoding; `qean_motion::floor::stop_sliding`).
     pub slide_window: usize,
+    /// Decoding, ours: σ (frames) of a Gaussian over time on the decoded joints after the seed (0 = off,
+    /// the paper's decoding): the decoder's frame-to-frame roughness taken away (`qean_motion::smooth`).
+    pub smooth_sigma: f64,
     /// SPEC §13.2.6 option: the training split is also tokenised from frame offsets 1..rate−1 (the music
     /// shifted alike), so the GPT sees `rate` different token sequences of each dance instead of one.
     pub token_shift_aug: bool,
@@ -141,6 +144,7 @@ impl GptConfig {
             repetition_window: 8,
             floor_window: 0,
             slide_window: 0,
+            smooth_sigma: 0.0,
             token_shift_aug: false,
             text_schedule: TextSchedule::Linear,
             text_ramp: 4,
@@ -233,6 +237,12 @@ impl GptConfig {
         }
         if self.text_every == 0 {
             return Err("gpt.text_every must be at least 1".into());
+        }
+        if !(self.smooth_sigma.is_finite() && (0.0..=10.0).contains(&self.smooth_sigma)) {
+            return Err(format!(
+                "gpt.smooth_sigma must be in [0, 10] frames (0 = off), got {}",
+                self.smooth_sigma
+            ));
         }
         if !(self.text_fps.is_finite() && self.text_fps > 0.0 && self.text_fps <= 60.0) {
             return Err(format!(

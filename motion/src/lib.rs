@@ -13,6 +13,7 @@ pub mod pos72;
 pub mod rotation;
 pub mod seam;
 pub mod skeleton;
+pub mod smooth;
 pub mod vec3;
 
 pub use fk::FkRoot;

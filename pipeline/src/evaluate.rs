@@ -51,6 +51,8 @@ pub struct SamplingOverrides {
     pub floor_window: Option<usize>,
     /// GPT: the feet's glide window (None: the run's `gpt.slide_window`; 0 = off).
     pub slide_window: Option<usize>,
+    /// GPT: σ of the decoded joints' temporal filter (None: the run's `gpt.smooth_sigma`; 0 = off).
+    pub smooth_sigma: Option<f64>,
     pub sample_seed: u64,
     pub music_rollouts: Option<usize>,
 }
@@ -63,6 +65,7 @@ impl SamplingOverrides {
             seam_frames: self.seam_frames.unwrap_or(run.seam_frames),
             floor_window: self.floor_window.unwrap_or(run.floor_window),
             slide_window: self.slide_window.unwrap_or(run.slide_window),
+            smooth_sigma: self.smooth_sigma.unwrap_or(run.smooth_sigma),
             warp_frames: run.warp_frames,
         }
     }
@@ -818,6 +821,10 @@ fn sampler_label(req: &RunEvalRequest, config: &qean_config::RunConfig) -> Optio
         let decoding = match d.slide_window {
             0 => format!("{floor}, feet's glide kept"),
             w => format!("{floor}, feet's glide taken away over {w} frames"),
+        };
+        let decoding = match d.smooth_sigma {
+            s if s > 0.0 => format!("{decoding}, joints smoothed (σ {s} frames)"),
+            _ => decoding,
         };
         return Some(format!(
             "GPT picking top-k {}, temperature {}, repetition penalty {} over {} tokens, draw seed {}; {decoding}",

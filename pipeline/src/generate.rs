@@ -127,6 +127,8 @@ pub struct GenerateOptions {
     pub floor_window: Option<usize>,
     /// GPT: the feet's glide window (None: the run's `gpt.slide_window`; 0 = off).
     pub slide_window: Option<usize>,
+    /// GPT: σ of the decoded joints' temporal filter (None: the run's `gpt.smooth_sigma`; 0 = off).
+    pub smooth_sigma: Option<f64>,
     pub sample_seed: u64,
     /// Genre control (genre-control GPT runs): the genre and the seed of z.
     pub genre: Option<crate::gpt::GenreChoice>,
@@ -154,11 +156,23 @@ impl GenerateOptions {
                 ck.config.model.arch
             );
         }
-        if !token_model && (self.floor_window.is_some() || self.slide_window.is_some()) {
+        if !token_model
+            && (self.floor_window.is_some()
+                || self.slide_window.is_some()
+                || self.smooth_sigma.is_some())
+        {
             tracing::warn!(
-                "--floor-window and --slide-window are for GPT runs (a root integrated from decoded velocities); this {:?} run ignores them",
+                "--floor-window, --slide-window and --smooth-sigma are for GPT runs (a root integrated from decoded velocities); this {:?} run ignores them",
                 ck.config.model.arch
             );
+        }
+        if let Some(s) = self
+            .smooth_sigma
+            .filter(|s| !(s.is_finite() && (0.0..=10.0).contains(s)))
+        {
+            return Err(Error::msg(format!(
+                "--smooth-sigma must be in [0, 10] frames (0 = off), got {s}"
+            )));
         }
         if let Some(t) = self.temperature.filter(|t| !(t.is_finite() && *t >= 0.0)) {
             return Err(Error::msg(format!("--temperature must be ≥ 0, got {t}")));

@@ -504,7 +504,7 @@ pub fn sample_tokens(
 }
 
 /// How decoded tokens become a dance after the seed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Decoding {
     /// Frames over which the body eases out of the seed's last pose (`recipe.seam_frames`).
     pub seam_frames: usize,
@@ -512,6 +512,8 @@ pub struct Decoding {
     pub floor_window: usize,
     /// Window of the feet's glide removal (`gpt.slide_window`; 0 = off).
     pub slide_window: usize,
+    /// σ in frames of the temporal filter on the decoded joints (`gpt.smooth_sigma`; 0 = off).
+    pub smooth_sigma: f64,
     /// Frames on each side of a keyframe over which the decoded dance is warped to its pose
     /// (`keyframe.warp_frames`; 0 = off, the paper's tokens alone).
     pub warp_frames: usize,
@@ -525,6 +527,7 @@ impl Decoding {
             seam_frames: config.recipe.seam_frames,
             floor_window: g.floor_window,
             slide_window: g.slide_window,
+            smooth_sigma: g.smooth_sigma,
             warp_frames: config.keyframe_table().warp_frames,
         }
     }
@@ -548,6 +551,8 @@ pub fn decode_dance(
     let rows: Vec<f64> = rows.iter().map(|&v| v as f64).collect();
     let seed_joints = seed.joints(FkRoot::Smpl);
     let mut joints = pos72_to_joints(&rows, seed_joints[0], &pos72_options(c));
+    // The decoder's frame-to-frame roughness, taken away before anything is fitted to the frames.
+    qean_motion::smooth::gaussian_smooth(&mut joints, seed.frames, d.smooth_sigma);
     // The tail continues from the seed's last root: integrated from J_0(0) (SPEC §13.8) the decoded root
     // drifts over the seed tokens by their reconstruction error, which showed as a jump at the seam.
     let last = (seed.frames - 1) * 24;
@@ -794,6 +799,9 @@ pub fn generate(
     }
     if let Some(w) = opts.slide_window {
         run.decoding.slide_window = w;
+    }
+    if let Some(s) = opts.smooth_sigma {
+        run.decoding.smooth_sigma = s;
     }
     let picking = Picking::of(
         g,

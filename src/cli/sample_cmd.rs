@@ -123,6 +123,10 @@ pub struct SampleArgs {
     /// paper's decoding; default: the run's gpt.slide_window).
     #[arg(long)]
     pub slide_window: Option<usize>,
+    /// GPT: smooth the decoded joints over time with a Gaussian of σ frames, taking the token decoder's
+    /// frame-to-frame roughness away (0 = off, the paper's decoding; default: the run's gpt.smooth_sigma).
+    #[arg(long)]
+    pub smooth_sigma: Option<f64>,
     /// TSMT and GPT: seed of the draws.
     #[arg(long, default_value_t = 0)]
     pub sample_seed: u64,
@@ -203,6 +207,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         repetition_penalty: a.repetition_penalty,
         floor_window: a.floor_window,
         slide_window: a.slide_window,
+        smooth_sigma: a.smooth_sigma,
         sample_seed: a.sample_seed,
         genre,
         text: TextRequest::list(&a.text_embedding, &a.text_interval)?,

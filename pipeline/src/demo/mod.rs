@@ -617,6 +617,7 @@ pub(crate) fn dance(
             repetition_penalty: None,
             floor_window: None,
             slide_window: None,
+            smooth_sigma: None,
             sample_seed: 0,
             genre,
             text: Vec::new(),
