@@ -125,8 +125,8 @@ pub struct Args {
     /// default: the run's gpt.slide_window).
     #[arg(long, requires = "run")]
     pub slide_window: Option<usize>,
-    /// Checkpoint mode, GPT: σ in frames of the decoded joints' temporal filter (0 = off; default: the
-    /// run's gpt.smooth_sigma).
+    /// Checkpoint mode, GPT and TSMT: σ in frames of the decoded joints' temporal filter (0 = off;
+    /// default: the run's gpt.smooth_sigma or tsmt.smooth_sigma).
     #[arg(long, requires = "run")]
     pub smooth_sigma: Option<f64>,
     /// Checkpoint mode, TSMT: seed of the draws (S-music-D's extra rollouts use the next seeds).

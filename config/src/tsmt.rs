@@ -201,6 +201,9 @@ pub struct TsmtConfig {
     pub lr_start_factor: f64,
     /// IK for exports and Coherence.
     pub ik: IkMode,
+    /// Decoding, ours: σ (frames) of a Gaussian over time on the decoded joints (0 = off, the paper's
+    /// decoding; `qean_motion::smooth`, as `gpt.smooth_sigma`).
+    pub smooth_sigma: f64,
 }
 
 impl Default for TsmtConfig {
@@ -246,6 +249,7 @@ impl TsmtConfig {
             seed_frames: 120,
             lr_start_factor: 1.0,
             ik: IkMode::Swing,
+            smooth_sigma: 0.0,
         }
     }
 
@@ -274,6 +278,12 @@ impl TsmtConfig {
 
     /// Checks what the types do not; the message names the key.
     pub fn validate(&self) -> Result<(), String> {
+        if !(self.smooth_sigma.is_finite() && (0.0..=10.0).contains(&self.smooth_sigma)) {
+            return Err(format!(
+                "tsmt.smooth_sigma must be in [0, 10] frames (0 = off), got {}",
+                self.smooth_sigma
+            ));
+        }
         let positive = [
             ("n_bins", self.n_bins),
             ("window", self.window),

@@ -51,7 +51,8 @@ pub struct SamplingOverrides {
     pub floor_window: Option<usize>,
     /// GPT: the feet's glide window (None: the run's `gpt.slide_window`; 0 = off).
     pub slide_window: Option<usize>,
-    /// GPT: σ of the decoded joints' temporal filter (None: the run's `gpt.smooth_sigma`; 0 = off).
+    /// GPT and TSMT: σ of the decoded joints' temporal filter (None: the run's `gpt.smooth_sigma` or
+    /// `tsmt.smooth_sigma`; 0 = off).
     pub smooth_sigma: Option<f64>,
     pub sample_seed: u64,
     pub music_rollouts: Option<usize>,
@@ -591,6 +592,7 @@ fn sample_tsmt(
         frames: req.max_frames,
         sampling: crate::tsmt::sampling_with(&t, s.temperature, s.top_k, s.decode, draw_seed),
         backend,
+        smooth_sigma: s.smooth_sigma.unwrap_or(t.smooth_sigma),
     };
     let motions = crate::tsmt::sample_motions(ck, &rollouts, progress)?;
     Ok(motions.iter().map(|m| m.to_layout(opts.layout)).collect())
@@ -802,8 +804,12 @@ fn sampler_label(req: &RunEvalRequest, config: &qean_config::RunConfig) -> Optio
     let s = &req.sampling;
     if let Some(t) = config.tsmt.as_ref() {
         let r = crate::tsmt::sampling_with(t, s.temperature, s.top_k, s.decode, s.sample_seed);
+        let smooth = match s.smooth_sigma.unwrap_or(t.smooth_sigma) {
+            x if x > 0.0 => format!("; joints smoothed (σ {x} frames)"),
+            _ => String::new(),
+        };
         return Some(format!(
-            "TSMT decoding {}, temperature {}, top-k {}, draw seed {}",
+            "TSMT decoding {}, temperature {}, top-k {}, draw seed {}{smooth}",
             r.decode.name(),
             r.temperature,
             r.top_k,

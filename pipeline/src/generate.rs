@@ -156,13 +156,15 @@ impl GenerateOptions {
                 ck.config.model.arch
             );
         }
-        if !token_model
-            && (self.floor_window.is_some()
-                || self.slide_window.is_some()
-                || self.smooth_sigma.is_some())
-        {
+        if !draws && self.smooth_sigma.is_some() {
             tracing::warn!(
-                "--floor-window, --slide-window and --smooth-sigma are for GPT runs (a root integrated from decoded velocities); this {:?} run ignores them",
+                "--smooth-sigma is for GPT and TSMT runs (decoded joints); this {:?} run ignores it",
+                ck.config.model.arch
+            );
+        }
+        if !token_model && (self.floor_window.is_some() || self.slide_window.is_some()) {
+            tracing::warn!(
+                "--floor-window and --slide-window are for GPT runs (a root integrated from decoded velocities); this {:?} run ignores them",
                 ck.config.model.arch
             );
         }

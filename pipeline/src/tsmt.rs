@@ -58,14 +58,15 @@ pub fn run_bins(ck: &Checkpoint) -> Result<Bins> {
 }
 
 /// The dance of one row: the seed motion as given, then `frames` generated frames from the rollout's
-/// positions (in bin units, [`qean_models::tsmt::sample::Rollout`], on `grid`: every frame when its step is
-/// 1) decoded, interpolated to 60 fps, rooted and turned into rotations by IK.
+/// positions (in bin units, [`qean_models::tsmt::sample::Rollout`], on `grid`: every frame when its step
+/// is one), decoded, interpolated to 60 fps, rooted, smoothed over time with σ = `smooth_sigma` frames
+/// (0: not) and turned into rotations by IK.
 pub fn decode_dance(
     t: &TsmtConfig,
     bins: &Bins,
     seed: &Motion,
     (positions, grid): (&[f64], &Grid),
-    frames: usize,
+    (frames, smooth_sigma): (usize, f64),
 ) -> Motion {
     let n = t.coords();
     let coords = bins.decode_positions(positions);
@@ -82,7 +83,8 @@ pub fn decode_dance(
     };
     let seed_joints = seed.joints(FkRoot::Smpl);
     let start = seed_joints[(seed.frames - 1) * NUM_JOINTS];
-    let joints = coords_to_joints(&real, t.root_mode, start);
+    let mut joints = coords_to_joints(&real, t.root_mode, start);
+    qean_motion::smooth::gaussian_smooth(&mut joints, 0, smooth_sigma);
     let tail = motion_from_joints(&joints, t.ik, FkRoot::Smpl);
     let mut poses = seed.poses.clone();
     poses.extend_from_slice(&tail.poses);
@@ -107,6 +109,8 @@ pub struct TsmtRollouts<'a> {
     pub frames: usize,
     pub sampling: TsmtSampling,
     pub backend: qean_models::backend::Backend,
+    /// σ in frames of the temporal filter on the decoded joints (0 = off).
+    pub smooth_sigma: f64,
 }
 
 /// Samples every row in one batch and returns each row's dance (seed + generated frames) as SMPL
@@ -174,7 +178,7 @@ pub fn sample_motions(
         .zip(&lengths)
         .map(|((rollout, seed), &l)| {
             let used = &rollout.positions[..(coarse_seed + steps(l)) * n];
-            decode_dance(&t, &bins, seed, (used, &grid), l)
+            decode_dance(&t, &bins, seed, (used, &grid), (l, r.smooth_sigma))
         })
         .collect())
 }
@@ -212,6 +216,7 @@ pub fn generate(
             frames: opts.frames,
             sampling: sampling(&ck.config.tsmt(), opts),
             backend: opts.backend,
+            smooth_sigma: opts.smooth_sigma.unwrap_or(ck.config.tsmt().smooth_sigma),
         },
         progress,
     )?;

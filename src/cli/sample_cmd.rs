@@ -123,8 +123,8 @@ pub struct SampleArgs {
     /// paper's decoding; default: the run's gpt.slide_window).
     #[arg(long)]
     pub slide_window: Option<usize>,
-    /// GPT: smooth the decoded joints over time with a Gaussian of σ frames, taking the token decoder's
-    /// frame-to-frame roughness away (0 = off, the paper's decoding; default: the run's gpt.smooth_sigma).
+    /// GPT and TSMT: smooth the decoded joints over time with a Gaussian of σ frames, taking the token decoder's
+    /// frame-to-frame roughness away (0 = off, the paper's decoding; default: the run's gpt.smooth_sigma or tsmt.smooth_sigma).
     #[arg(long)]
     pub smooth_sigma: Option<f64>,
     /// TSMT and GPT: seed of the draws.
