@@ -204,6 +204,7 @@ impl Checkpoint {
                 subbin_radius: 0,
                 coherent_seconds: 0.0,
                 upsample: Default::default(),
+                smooth_sigma: 0.0,
                 ..t
             })
         };
@@ -238,6 +239,9 @@ impl Checkpoint {
                 b.shape(),
                 qean_config::gpt::GptConfig::SHAPE_FIELDS,
             )?;
+        }
+        if let (Some(a), Some(b)) = (&self.config.keyframe, &config.keyframe) {
+            self.same_shape("keyframe module", a.weights, b.weights, "weights")?;
         }
         if let (Some(a), Some(b)) = (&self.config.genre, &config.genre) {
             let shape = |c: &qean_config::genre::GenreConfig| {
