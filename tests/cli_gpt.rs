@@ -867,15 +867,7 @@ fn text_steps_alternate_with_music_steps_and_leave_the_idle_base_alone() {
 
     // A broken text set: one line naming the file, no run directory.
     let broken = dir.path().join("broken_set");
-    std::fs::create_dir(&broken).unwrap();
-    for sub in ["new_joints", "texts", "text_emb"] {
-        std::fs::create_dir(broken.join(sub)).unwrap();
-        for e in std::fs::read_dir(text_set.join(sub)).unwrap() {
-            let e = e.unwrap();
-            std::fs::copy(e.path(), broken.join(sub).join(e.file_name())).unwrap();
-        }
-    }
-    std::fs::copy(text_set.join("train.txt"), broken.join("train.txt")).unwrap();
+    copy_tree(&text_set, &broken);
     qean_io::npy::write_f32(&broken.join("text_emb/000001.npy"), &[2, 7], &[0.0; 14]).unwrap();
     let bad_run = dir.path().join("bad_text_run");
     let mut sets = gpt_sets(1);

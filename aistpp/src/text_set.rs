@@ -202,6 +202,26 @@ fn parse_line(line: &str) -> std::result::Result<(String, f64, f64), String> {
     Ok((caption.trim().to_string(), time(from)?, time(to)?))
 }
 
+/// One text embedding file (a `.npy` of `dim` values, e.g. a CLIP text embedding), unit length when
+/// `l2_normalise`.
+pub fn read_embedding(path: &Path, dim: usize, l2_normalise: bool) -> Result<Vec<f32>> {
+    let a = qean_io::npy::read(path)?;
+    if a.data.len() != dim {
+        return Err(Error::at(
+            path,
+            format!(
+                "a text embedding of {} values; this GPT's T-Base takes gpt.text_dim = {dim}",
+                a.data.len()
+            ),
+        ));
+    }
+    let v: Vec<f32> = a.data.iter().map(|&v| v as f32).collect();
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err(Error::at(path, "the text embedding is not finite"));
+    }
+    Ok(if l2_normalise { l2_normalised(&v) } else { v })
+}
+
 /// `v` scaled to unit length (unchanged when zero).
 pub fn l2_normalised(v: &[f32]) -> Vec<f32> {
     let norm = v.iter().map(|x| x * x).sum::<f32>().sqrt();

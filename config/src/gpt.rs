@@ -197,6 +197,17 @@ impl GptConfig {
         "codes, rate, hidden, heads, base_layers, head_layers, window, m_layout, text_dim";
 
     /// Values no GPT can use, as one message.
+    /// How `text_set` is read: at `text_fps`, `text_dim`-wide embeddings, caption slices on this GPT's
+    /// token grid.
+    pub fn text_set_options(&self) -> qean_aistpp::text_set::TextSetOptions {
+        qean_aistpp::text_set::TextSetOptions {
+            fps: self.text_fps,
+            dim: self.text_dim,
+            l2_normalise: self.text_l2_normalise,
+            rate: self.rate,
+        }
+    }
+
     /// Whether text steps are configured (any of `text_dir`, `text_set`, `synthetic_text`).
     pub fn has_text(&self) -> bool {
         self.text_dir.is_some() || self.text_set.is_some() || self.synthetic_text

@@ -264,26 +264,7 @@ impl TextRequest {
             let genre = GenreChoice::parse(code, 0)?.genre;
             return Ok(qean_checkpoint::gpt::genre_embedding(genre, dim));
         }
-        let path = Path::new(name);
-        let a = qean_io::npy::read(path)?;
-        if a.data.len() != dim {
-            return Err(Error::at(
-                path,
-                format!(
-                    "a text embedding of {} values; this GPT's T-Base takes gpt.text_dim = {dim}",
-                    a.data.len()
-                ),
-            ));
-        }
-        let v: Vec<f32> = a.data.iter().map(|&v| v as f32).collect();
-        if v.iter().any(|x| !x.is_finite()) {
-            return Err(Error::at(path, "the text embedding is not finite"));
-        }
-        Ok(if g.text_l2_normalise {
-            qean_aistpp::text_set::l2_normalised(&v)
-        } else {
-            v
-        })
+        qean_aistpp::text_set::read_embedding(Path::new(name), dim, g.text_l2_normalise)
     }
 
     /// What can be checked before any music is read: a GPT whose T-Base was trained, an embedding of its

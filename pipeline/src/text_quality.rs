@@ -10,7 +10,7 @@
 use std::path::PathBuf;
 
 use qean_aistpp::dataset::Dataset;
-use qean_aistpp::text_set::{TextClip, TextSet, TextSetOptions};
+use qean_aistpp::text_set::TextSet;
 use qean_config::gpt::{GptConfig, TextSchedule};
 use qean_eval::keyframe_fidelity::pose_error;
 use qean_eval::positions::{Frame, Sequence};
@@ -101,7 +101,7 @@ pub fn text_quality(
         }
         let seed = Motion::from_layout(&r.seed, layout).map_err(Error::Invalid)?;
         let text = [TextRequest {
-            embedding: TextEmbedding::Values(prompts[i % prompts.len()].embedding.clone()),
+            embedding: TextEmbedding::Values(prompts[i % prompts.len()].clone()),
             from_s: opts.from_s,
             to_s: opts.to_s,
         }];
@@ -133,32 +133,28 @@ pub fn text_quality(
     finish(req, &ck, opts, &g, prompts.len(), sets, span, &ds)
 }
 
-/// Every caption of the split, with its embedding.
-fn prompts(g: &GptConfig, opts: &TextEvalOptions) -> Result<Vec<TextClip>> {
+/// The embedding of every caption of the split.
+fn prompts(g: &GptConfig, opts: &TextEvalOptions) -> Result<Vec<Vec<f32>>> {
     if !g.has_text() {
         return Err(Error::Invalid(
             "--text-set: this GPT took music steps only (no gpt.text_set, gpt.text_dir or gpt.synthetic_text): its T-Base is untrained".into(),
         ));
     }
     let set = TextSet::open(&opts.text_set, &opts.split)?;
-    let read = TextSetOptions {
-        fps: g.text_fps,
-        dim: g.text_dim,
-        l2_normalise: g.text_l2_normalise,
-        rate: g.rate,
-    };
-    let mut clips = Vec::new();
+    let read = g.text_set_options();
+    // Only the embeddings are kept: a real set's joints would fill memory for nothing.
+    let mut prompts = Vec::new();
     for id in &set.ids {
-        clips.extend(set.clips(id, &read)?);
+        prompts.extend(set.clips(id, &read)?.into_iter().map(|c| c.embedding));
     }
-    if clips.is_empty() {
+    if prompts.is_empty() {
         return Err(Error::Invalid(format!(
             "{}: no caption of the {} split covers a whole token",
             opts.text_set.display(),
             opts.split
         )));
     }
-    Ok(clips)
+    Ok(prompts)
 }
 
 /// Mean root-relative joint distance between two dances over the frames of `span` both reach.

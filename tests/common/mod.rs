@@ -168,3 +168,17 @@ pub fn train_sequences(run: &Path) -> usize {
         .unwrap_or_else(|| panic!("no train-sequence count in {}", run.display()));
     before.rsplit('(').next().unwrap().parse().unwrap()
 }
+
+/// A copy of the directory tree `from` at `to`.
+pub fn copy_tree(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let path = entry.unwrap().path();
+        let target = to.join(path.file_name().unwrap());
+        if path.is_dir() {
+            copy_tree(&path, &target);
+        } else {
+            std::fs::copy(&path, &target).unwrap();
+        }
+    }
+}

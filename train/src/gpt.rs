@@ -149,23 +149,7 @@ impl GptFamily {
                     if !path.is_file() {
                         continue;
                     }
-                    let a = qean_io::npy::read(&path)?;
-                    if a.data.len() != g.text_dim {
-                        return Err(Error::at(
-                            &path,
-                            format!(
-                                "a text embedding of {} values; gpt.text_dim is {}",
-                                a.data.len(),
-                                g.text_dim
-                            ),
-                        ));
-                    }
-                    let v: Vec<f32> = a.data.iter().map(|&v| v as f32).collect();
-                    if g.text_l2_normalise {
-                        qean_aistpp::text_set::l2_normalised(&v)
-                    } else {
-                        v
-                    }
+                    qean_aistpp::text_set::read_embedding(&path, g.text_dim, g.text_l2_normalise)?
                 }
                 None => match qean_aistpp::names::genre_of(&name) {
                     Some(genre) => genre_embedding(genre, g.text_dim),
@@ -198,12 +182,7 @@ impl GptFamily {
     fn text_set_items(&self, g: &GptConfig, root: &Path) -> Result<Vec<TextItem>> {
         let vq = self.vq.as_ref().expect("the VQ-VAE is loaded first");
         let set = qean_aistpp::text_set::TextSet::open(root, &g.text_split)?;
-        let opts = qean_aistpp::text_set::TextSetOptions {
-            fps: g.text_fps,
-            dim: g.text_dim,
-            l2_normalise: g.text_l2_normalise,
-            rate: g.rate,
-        };
+        let opts = g.text_set_options();
         let bar = qean_checkpoint::progress::bar(set.ids.len() as u64, "text set", "motions");
         let mut items = Vec::new();
         for id in &set.ids {
