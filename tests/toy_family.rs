@@ -314,6 +314,7 @@ fn the_weight_average_resumes_exactly_and_leaves_training_unchanged() {
     };
     let device = Device::flex();
     let trained = |c: &Checkpoint| {
+        let _rng = qean_models::backend::rng_guard();
         let m = ToyFamily::default().init(&c.config, &device).unwrap();
         let path = c.dir.join(checkpoint::MODEL_FILE);
         bits(&qean_checkpoint::weights::load_weights(m, &path).unwrap())

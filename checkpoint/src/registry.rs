@@ -82,6 +82,8 @@ impl Checkpoint {
     /// The checkpoint's model with `which` weights, on `device`.
     pub fn load_family_weights(&self, device: &Device, which: Weights) -> Result<FamilyModel> {
         let path = self.file_of(which);
+        // Initialisation draws from the process's random stream before the weights replace it.
+        let _rng = qean_models::backend::rng_guard();
         Ok(match self.config.spec() {
             ModelSpec::FactQean(m) => FamilyModel::FactQean(load_weights(
                 DanceModel::new(m, device).map_err(|e| Error::at(&self.dir, e.to_string()))?,

@@ -120,3 +120,33 @@ mod tests {
         }
     }
 }
+
+/// Held while a job seeds Burn's random stream and draws from it; see [`rng_guard`].
+pub struct RngGuard(Option<std::sync::MutexGuard<'static, ()>>);
+
+thread_local! {
+    static RNG_HELD: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Burn's CPU and GPU backends keep one random stream per process, and `device.seed` replaces it. A job
+/// that seeds it and then draws from it (a training run, a model's initialisation before its weights are
+/// loaded) holds this guard throughout, so that two such jobs on threads of one process (the tests, an
+/// in-process sweep) cannot interleave their draws and change each other's results. Re-entrant on one
+/// thread: a training run that loads another run's model takes it again without waiting on itself.
+pub fn rng_guard() -> RngGuard {
+    static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    if RNG_HELD.with(|h| h.get()) {
+        return RngGuard(None);
+    }
+    let guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    RNG_HELD.with(|h| h.set(true));
+    RngGuard(Some(guard))
+}
+
+impl Drop for RngGuard {
+    fn drop(&mut self) {
+        if self.0.is_some() {
+            RNG_HELD.with(|h| h.set(false));
+        }
+    }
+}

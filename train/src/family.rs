@@ -166,6 +166,7 @@ pub fn load_checkpoint_model<F: Family>(
     checkpoint: &Checkpoint,
     device: &Device,
 ) -> Result<F::Model> {
+    let _rng = qean_models::backend::rng_guard();
     let model = family.init(&checkpoint.config, device)?;
     qean_checkpoint::weights::load_weights(model, &checkpoint.weights_file())
 }

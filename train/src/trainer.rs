@@ -474,6 +474,8 @@ fn train_locked<F: Family>(
     mut config: RunConfig,
     opts: &TrainOptions,
 ) -> Result<TrainOutcome> {
+    // Seeded draws from here to the last update: no other job of this process draws in between.
+    let _rng = qean_models::backend::rng_guard();
     let run_dir = opts.run_dir.clone();
     run_dir::clean_temporaries(&run_dir)?;
     let resume = crate::resume::resume_point(&run_dir, &opts.start, &config)?;
