@@ -8,7 +8,9 @@
 # Six other tracks of the same packages go to DIR/tuning/ (and DIR/tuning/excerpts/): songs to choose
 # sampler settings on, so that the six judging songs above stay unseen by every choice
 # (hr3-motion, hr3-crossroads: Shawn Parrotte; hr-savino-ocean: Will Savino; hr-domina-mountain:
-# Lincoln Domina, all CC BY-SA 3.0; SuperTux's forest-sprint and battle_theme: GPL-2+).
+# Lincoln Domina, all CC BY-SA 3.0; SuperTux's forest-sprint and battle_theme: GPL-2+), and six more to
+# DIR/tuning2/ for choices the first six leave tied (hr3-laboratory, hr3-icyland: Shawn Parrotte;
+# hr-savino-ivory: Will Savino, CC BY-SA 3.0; SuperTux's salcon, fortress and tropicalbreeze: GPL-2+).
 # Then, e.g.: qean sample --run qean-demo/runs/qean --music DIR/excerpts/hr3-desert.ogg --out dances
 set -euo pipefail
 out="${1:-songs}"
@@ -30,13 +32,18 @@ for f in hr3-motion hr3-crossroads hr-savino-ocean hr-domina-mountain; do
   cp "$hr/$f.ogg" "$out/tuning/"
 done
 cp "$st/forest/forest-sprint.ogg" "$st/misc/battle_theme.ogg" "$out/tuning/"
+mkdir -p "$out/tuning2"
+for f in hr3-laboratory hr3-icyland hr-savino-ivory; do
+  cp "$hr/$f.ogg" "$out/tuning2/"
+done
+cp "$st/antarctic/salcon.ogg" "$st/castle/fortress.ogg" "$st/tropical/tropicalbreeze.ogg" "$out/tuning2/"
 cp "$work/x/usr/share/doc/hyperrogue-music/copyright" "$out/hyperrogue-music.copyright"
 cp "$work/x/usr/share/doc/supertux-data/copyright" "$out/supertux-data.copyright"
 if python3 -c "import soundfile" 2>/dev/null; then
   mkdir -p "$out/excerpts"
   python3 - "$out" <<'PY'
 import sys, pathlib, soundfile as sf
-for out in [pathlib.Path(sys.argv[1]), pathlib.Path(sys.argv[1]) / "tuning"]:
+for out in [pathlib.Path(sys.argv[1]) / d for d in ["", "tuning", "tuning2"]]:
     (out / "excerpts").mkdir(exist_ok=True)
     for f in sorted(out.glob("*.ogg")):
         audio, sr = sf.read(f, always_2d=True)
@@ -45,8 +52,8 @@ for out in [pathlib.Path(sys.argv[1]), pathlib.Path(sys.argv[1]) / "tuning"]:
         sf.write(tmp, clip, sr, format="OGG", subtype="VORBIS")
         tmp.rename(out / "excerpts" / f.name)
 PY
-  ls -1 "$out" "$out/excerpts" "$out/tuning/excerpts"
+  ls -1 "$out" "$out/excerpts" "$out/tuning/excerpts" "$out/tuning2/excerpts"
 else
-  ls -1 "$out" "$out/tuning"
+  ls -1 "$out" "$out/tuning" "$out/tuning2"
   echo "python3 has no soundfile module (pip install soundfile): the full tracks only, no excerpts" >&2
 fi

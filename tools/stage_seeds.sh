@@ -2,7 +2,8 @@
 # Trains the demo's FACT, QEAN, TSMT or VQ-VAE + GPT stage at several training seeds, exactly as `qean demo`
 # does (its presets and its --set overrides, plus train.seed), and dances each run to the songs of
 # docs/freezing.md section 7: Vibe Ace (held out) and the Debian excerpts of tools/debian_songs.sh, or, with
-# SONG_SET=tuning, to the six tuning songs (DIR/tuning/excerpts) that settings are chosen on.
+# SONG_SET=tuning, to the six tuning songs (DIR/tuning/excerpts) that settings are chosen on (SONG_SET=tuning2:
+# the six more of DIR/tuning2/excerpts, for choices the first six leave tied).
 # One table row per run: each song's slowest–fastest 5-s speed ratio / sharpest acceleration ratio,
 # ✓ when every span is at 0.6–1.6× and ≤ 2×.
 #
@@ -51,10 +52,12 @@ train() { # run-dir log config args...
       { echo "training $dir failed: $(tail -n 1 "$log")" >&2; exit 1; }
   fi
 }
-if [ "${SONG_SET:-judging}" = tuning ]; then
+if [ "${SONG_SET:-judging}" = tuning ] || [ "${SONG_SET:-judging}" = tuning2 ]; then
+  names=(battle_theme forest-sprint hr-domina-mountain hr-savino-ocean hr3-crossroads hr3-motion)
+  [ "$SONG_SET" = tuning2 ] && names=(fortress hr-savino-ivory hr3-icyland hr3-laboratory salcon tropicalbreeze)
   list=() header="| run |"
-  for s in battle_theme forest-sprint hr-domina-mountain hr-savino-ocean hr3-crossroads hr3-motion; do
-    list+=("$songs/tuning/excerpts/$s.ogg") header="$header $s |"
+  for s in "${names[@]}"; do
+    list+=("$songs/$SONG_SET/excerpts/$s.ogg") header="$header $s |"
   done
   echo "$header dances |"
   echo "|---|---|---|---|---|---|---|---|"

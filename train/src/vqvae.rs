@@ -28,7 +28,13 @@ pub struct VqFamily {
     pending: Mutex<Option<EmaCodebook>>,
     /// The training split (set by `prepare`): the one a text set joins.
     train: Option<Split>,
+    /// The text set's motions when `prepare` read them for the statistics, kept for the training windows
+    /// (a text set is read once).
+    text: Mutex<Option<Vec<TextMotion>>>,
 }
+
+/// A text-set motion's id and pos72 rows.
+type TextMotion = (String, Vec<f32>);
 
 /// A batch as the model reads it.
 pub struct VqInputs {
@@ -43,21 +49,26 @@ pub fn vq_of(config: &RunConfig) -> &VqConfig {
     config.vq_table()
 }
 
-/// Per-channel mean and SD (ddof 0) of the training split's pos72 frames (with the text set's motions).
-fn pos72_stats(ds: &Dataset, split: Split, c: &VqConfig) -> Result<(Vec<f64>, Vec<f64>)> {
+/// Per-channel mean and SD (ddof 0) of the training split's pos72 frames and the text set's motions.
+fn pos72_stats(
+    ds: &Dataset,
+    split: Split,
+    c: &VqConfig,
+    text: &[TextMotion],
+) -> Result<(Vec<f64>, Vec<f64>)> {
     let mut stats = crate::data::ColumnStats::new(POS72);
     for name in ds.split(split) {
         let rows = motion_pos72(&Motion::read_pkl(&ds.motion_path(&name))?, c);
         rows.chunks_exact(POS72).for_each(|r| stats.add(r));
     }
-    for (_, rows) in text_motions(c)? {
+    for (_, rows) in text {
         rows.chunks_exact(POS72).for_each(|r| stats.add(r));
     }
     Ok(stats.mean_std())
 }
 
 /// The pos72 rows of every motion of `vq.text_set`'s `text_split` (none without a text set), by id.
-fn text_motions(c: &VqConfig) -> Result<Vec<(String, Vec<f32>)>> {
+fn text_motions(c: &VqConfig) -> Result<Vec<TextMotion>> {
     let Some(root) = &c.text_set else {
         return Ok(Vec::new());
     };
@@ -72,13 +83,13 @@ fn text_motions(c: &VqConfig) -> Result<Vec<(String, Vec<f32>)>> {
         .collect()
 }
 
-/// `set` (AIST++ training windows) joined by the text set's motions, each a sequence without music,
-/// balanced by `vq.text_balance` (SPEC §13.2.5).
-fn with_text_set(mut set: SequenceSet, c: &VqConfig) -> Result<SequenceSet> {
+/// `set` (AIST++ training windows) joined by the text set's motions (`text`), each a sequence without
+/// music, balanced by `vq.text_balance` (SPEC §13.2.5).
+fn with_text_set(mut set: SequenceSet, c: &VqConfig, text: Vec<TextMotion>) -> Result<SequenceSet> {
     let music = set.sequences.len();
     let silent = std::sync::Arc::new(Vec::new());
     let mut short = 0;
-    for (id, rows) in text_motions(c)? {
+    for (id, rows) in text {
         let frames = rows.len() / POS72;
         if set.spec.starts(frames) == 0 {
             short += 1;
@@ -212,7 +223,9 @@ impl Family for VqFamily {
                 c.mean = saved.mean;
                 c.std = saved.std;
             } else if c.mean.is_empty() {
-                let (mean, std) = pos72_stats(dataset, train, c)?;
+                let text = text_motions(c)?;
+                let (mean, std) = pos72_stats(dataset, train, c, &text)?;
+                *self.text.lock().unwrap_or_else(|e| e.into_inner()) = Some(text);
                 tracing::info!("pos72 statistics fitted on the {} split", train.name());
                 c.mean = mean;
                 c.std = std;
@@ -246,7 +259,12 @@ impl Family for VqFamily {
             |_, _| Vec::new(),
         )?;
         if c.text_set.is_some() && self.train == Some(split) {
-            return with_text_set(set, c);
+            let read = self.text.lock().unwrap_or_else(|e| e.into_inner()).take();
+            let text = match read {
+                Some(text) => text,
+                None => text_motions(c)?,
+            };
+            return with_text_set(set, c, text);
         }
         Ok(set)
     }
