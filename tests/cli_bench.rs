@@ -56,3 +56,52 @@ fn unknown_measure_is_one_error_line() {
     );
     assert!(stderr.contains("unknown measure `warp`"), "{stderr}");
 }
+
+#[test]
+fn features_dataset_measure_fills_a_feature_cache() {
+    let d = tempfile::tempdir().unwrap();
+    let json = d.path().join("bench.json");
+    let work = d.path().join("work");
+    let out = qean()
+        .args(["bench", "--quick", "--only", "features-dataset", "--json"])
+        .arg(&json)
+        .arg("--work-dir")
+        .arg(&work)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("| features-dataset | - |"), "{stdout}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let e = &report["entries"][0];
+    assert_eq!(e["id"], "FeaturesDataset");
+    assert!(e["detail"].as_str().unwrap().contains("tracks/s"), "{e}");
+    // Each track computed side by side equals the same track computed alone with its tempo prior
+    // (mBRk: 80 + 10k BPM).
+    let cache = work.join("feature-dataset-4/features");
+    let alone = d.path().join("alone");
+    std::fs::create_dir_all(&alone).unwrap();
+    for k in [0, 3] {
+        let bpm = (80 + 10 * k).to_string();
+        let out = qean()
+            .arg("features")
+            .arg(work.join("track-60s-44100hz.wav"))
+            .args(["--start-bpm", &bpm, "--out"])
+            .arg(&alone)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let a = qean_io::npy::read(&alone.join("track-60s-44100hz.npy")).unwrap();
+        let b = qean_io::npy::read(&cache.join(format!("mBR{k}.npy"))).unwrap();
+        assert_eq!((&a.shape, &a.data), (&b.shape, &b.data), "track {k}");
+    }
+}

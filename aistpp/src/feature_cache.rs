@@ -146,38 +146,73 @@ pub fn load(dataset: &Dataset, music_id: &str) -> Result<MusicFeatures> {
 }
 
 /// Make sure every music ID has up-to-date features, computing missing or stale ones with
-/// `compute(audio_path, music_id)`; `progress(done, total, music_id)` is called after each. Returns how many were
-/// computed.
+/// `compute(audio_path, music_id)`, several tracks at once (a thread a core: the feature pipeline is serial
+/// in most of its stages, so tracks side by side keep every core busy); `progress(done, total, music_id)`
+/// is called after each track, checked or computed. Each track's files are written atomically as it
+/// finishes, so what is cached does not depend on the order; an error is the first failing track's in
+/// `music_ids` order (the other tracks are still computed and cached). Returns how many were computed.
 pub fn ensure(
     dataset: &Dataset,
     music_ids: &[String],
-    options_of: impl Fn(&str) -> String,
-    mut compute: impl FnMut(&Path, &str) -> Result<MusicFeatures>,
-    mut progress: impl FnMut(usize, usize, &str),
+    options_of: impl Fn(&str) -> String + Sync,
+    compute: impl Fn(&Path, &str) -> Result<MusicFeatures> + Sync,
+    progress: impl FnMut(usize, usize, &str) + Send,
 ) -> Result<usize> {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Mutex;
     // A cache run killed mid-write leaves its temporary behind; it is never read, but clear it.
     qean_io::fsutil::clean_stale_temporaries(&dataset.features_dir())?;
-    let mut computed = 0;
-    for (k, id) in music_ids.iter().enumerate() {
+    let total = music_ids.len();
+    let progress = Mutex::new((0, progress));
+    let tick = |id: &str| {
+        let mut p = progress.lock().unwrap_or_else(|e| e.into_inner());
+        p.0 += 1;
+        let done = p.0;
+        (p.1)(done, total, id);
+    };
+    let mut todo = Vec::new();
+    for id in music_ids {
         let audio = dataset.audio_path(id);
         let options = options_of(id);
         match state(dataset, id, audio.as_deref(), &options) {
-            CacheState::UpToDate | CacheState::Imported => {}
-            CacheState::Missing | CacheState::Stale => {
-                let audio = audio.ok_or_else(|| {
-                    Error::at(
-                        dataset.root.join("wav"),
-                        format!("no audio for music {id} (looked for {id}.wav/.ogg/.mp3/.flac) and no cached features"),
-                    )
-                })?;
-                let f = compute(&audio, id)?;
-                store(dataset, id, &audio, &options, &f)?;
-                computed += 1;
-            }
+            CacheState::UpToDate | CacheState::Imported => tick(id),
+            CacheState::Missing | CacheState::Stale => todo.push((id, audio, options)),
         }
-        progress(k + 1, music_ids.len(), id);
     }
-    Ok(computed)
+    let one = |(id, audio, options): &(&String, Option<PathBuf>, String)| -> Result<()> {
+        let audio = audio.as_deref().ok_or_else(|| {
+            Error::at(
+                dataset.root.join("wav"),
+                format!("no audio for music {id} (looked for {id}.wav/.ogg/.mp3/.flac) and no cached features"),
+            )
+        })?;
+        let f = compute(audio, id)?;
+        store(dataset, id, audio, options, &f)?;
+        tick(id);
+        Ok(())
+    };
+    // One worker a core, each taking the next track in order.
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(todo.len());
+    let next = AtomicUsize::new(0);
+    let results: Vec<Mutex<Option<Result<()>>>> = todo.iter().map(|_| Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| loop {
+                let k = next.fetch_add(1, Ordering::SeqCst);
+                let Some(track) = todo.get(k) else { break };
+                let r = one(track);
+                *results[k].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
+            });
+        }
+    });
+    for r in results {
+        if let Some(Err(e)) = r.into_inner().unwrap_or_else(|e| e.into_inner()) {
+            return Err(e);
+        }
+    }
+    Ok(todo.len())
 }
 
 #[cfg(test)]
@@ -194,50 +229,65 @@ mod tests {
     }
 
     #[test]
+    fn tracks_side_by_side_cache_each_and_report_the_first_failure_in_order() {
+        let (_d, ds) = dataset();
+        let ids: Vec<String> = (0..8).map(|k| format!("mBR{k}")).collect();
+        for id in &ids {
+            std::fs::write(ds.root.join(format!("wav/{id}.wav")), id.as_bytes()).unwrap();
+        }
+        // Each track's value is its index: a mix-up between tracks shows in the cache.
+        let value = |id: &str| id[3..].parse::<f32>().unwrap();
+        let fail = |id: &str| matches!(id, "mBR3" | "mBR6");
+        let compute = |_: &Path, id: &str| {
+            if fail(id) {
+                return Err(Error::msg(format!("cannot decode {id}")));
+            }
+            Ok((vec![value(id); 10 * AUDIO_DIM], 10))
+        };
+        let mut seen = Vec::new();
+        let err = ensure(
+            &ds,
+            &ids,
+            |_| "o".into(),
+            compute,
+            |done, total, _| seen.push((done, total)),
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("cannot decode mBR3"), "{err}");
+        assert_eq!(seen, (1..=6).map(|d| (d, 8)).collect::<Vec<_>>());
+        for id in ids.iter().filter(|id| !fail(id)) {
+            let (data, frames) = load(&ds, id).unwrap();
+            assert_eq!(frames, 10);
+            assert!(data.iter().all(|&x| x == value(id)), "{id}");
+        }
+        assert!(!features_path(&ds, "mBR3").exists());
+    }
+
+    #[test]
     fn compute_once_then_reuse_then_recompute_when_stale() {
         let (_d, ds) = dataset();
         let ids = vec!["mBR0".to_string()];
-        let mut calls = 0;
-        let mut compute = |_: &Path, _: &str| {
-            calls += 1;
+        let calls = std::sync::atomic::AtomicUsize::new(0);
+        let compute = |_: &Path, _: &str| {
+            calls.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
             Ok((vec![0.25f32; 300 * 35], 300))
         };
         let opts = |_: &str| "start_bpm=80".to_string();
-        assert_eq!(
-            ensure(&ds, &ids, opts, &mut compute, |_, _, _| {}).unwrap(),
-            1
-        );
-        assert_eq!(
-            ensure(&ds, &ids, opts, &mut compute, |_, _, _| {}).unwrap(),
-            0
-        );
+        assert_eq!(ensure(&ds, &ids, opts, compute, |_, _, _| {}).unwrap(), 1);
+        assert_eq!(ensure(&ds, &ids, opts, compute, |_, _, _| {}).unwrap(), 0);
         assert_eq!(load(&ds, "mBR0").unwrap().1, 300);
         // Other options: stale.
         assert_eq!(
-            ensure(
-                &ds,
-                &ids,
-                |_| "start_bpm=90".into(),
-                &mut compute,
-                |_, _, _| {}
-            )
-            .unwrap(),
+            ensure(&ds, &ids, |_| "start_bpm=90".into(), compute, |_, _, _| {}).unwrap(),
             1
         );
         // Changed audio: stale.
         std::fs::write(ds.root.join("wav/mBR0.wav"), b"other audio, longer").unwrap();
         assert_eq!(
-            ensure(
-                &ds,
-                &ids,
-                |_| "start_bpm=90".into(),
-                &mut compute,
-                |_, _, _| {}
-            )
-            .unwrap(),
+            ensure(&ds, &ids, |_| "start_bpm=90".into(), compute, |_, _, _| {}).unwrap(),
             1
         );
-        assert_eq!(calls, 3);
+        assert_eq!(calls.load(std::sync::atomic::Ordering::SeqCst), 3);
         // Without a record the features count as imported and are kept.
         std::fs::remove_file(record_path(&ds, "mBR0")).unwrap();
         assert_eq!(

@@ -4,6 +4,11 @@ track, as mint's cache_audio_features does. Also the peer of
 `cargo run --release -p qean-audio --example bench_features` (a stage breakdown of ours).
 
     VENV/bin/python bench/peer/features_librosa.py PATH [--repeats N]
+    VENV/bin/python bench/peer/features_librosa.py PATH PATH ... [--repeats N]   # dataset mode
+
+Dataset mode (several paths: `qean bench`'s features-dataset) loops over the tracks one after the other, as
+mint's cache_audio_features loops over AIST++'s music, and reports seconds per track (the loop's time over
+the track count, median over repeats).
 
 VENV: librosa 0.8.1 with resampy 0.2.2 (SPEC §2.8; tools/make_audio_fixtures.py shows the install line).
 Imports and numba's first-call compilation (a warm-up on 1 s of audio) are excluded; each repeat times
@@ -29,9 +34,12 @@ from make_audio_fixtures import SR, features  # noqa: E402
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("path")
+    ap.add_argument("path", nargs="+")
     ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args()
+    if len(args.path) > 1:
+        return dataset_mode(args)
+    args.path = args.path[0]
     # Warm-up: numba JIT of resampy and librosa's jitted helpers.
     y, _ = librosa.load(args.path, sr=SR, duration=1.0)
     features(y, 120.0)
@@ -60,6 +68,28 @@ def main():
         "peak_rss_mb": peak_rss_mb(),
         "detail": f"librosa.load(sr=30720) + features, median of {args.repeats}; "
                   f"load {statistics.median(loads):.2f} s, features {statistics.median(feats):.2f} s",
+    }))
+
+
+def dataset_mode(args):
+    y, _ = librosa.load(args.path[0], sr=SR, duration=1.0)
+    features(y, 120.0)
+    reset_peak_rss()
+    per_track = []
+    for _ in range(args.repeats):
+        t0 = time.perf_counter()
+        for path in args.path:
+            y, _ = librosa.load(path, sr=SR)
+            features(y, 120.0)
+        per_track.append((time.perf_counter() - t0) / len(args.path))
+    value = statistics.median(per_track)
+    print(f"librosa {librosa.__version__}: {len(args.path)} tracks, median {value:.3f} s per track")
+    print(json.dumps({
+        "name": f"librosa {librosa.__version__}",
+        "value": value,
+        "peak_rss_mb": peak_rss_mb(),
+        "detail": f"{len(args.path)} tracks one after the other (librosa.load(sr=30720) + features), "
+                  f"{1 / value:.2f} tracks/s, median of {args.repeats}",
     }))
 
 

@@ -54,6 +54,7 @@ impl BenchOptions {
         let measures = if quick {
             vec![
                 MeasureId::Features,
+                MeasureId::FeaturesDataset,
                 MeasureId::Metrics,
                 MeasureId::TrainTiny,
                 MeasureId::SampleTiny,

@@ -23,6 +23,7 @@ use super::report::Entry;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum MeasureId {
     Features,
+    FeaturesDataset,
     Metrics,
     TrainTiny,
     TrainMint,
@@ -33,8 +34,9 @@ pub enum MeasureId {
 }
 
 impl MeasureId {
-    pub const ALL: [MeasureId; 8] = [
+    pub const ALL: [MeasureId; 9] = [
         MeasureId::Features,
+        MeasureId::FeaturesDataset,
         MeasureId::Metrics,
         MeasureId::TrainTiny,
         MeasureId::TrainMint,
@@ -47,6 +49,7 @@ impl MeasureId {
     pub fn name(self) -> &'static str {
         match self {
             MeasureId::Features => "features",
+            MeasureId::FeaturesDataset => "features-dataset",
             MeasureId::Metrics => "metrics",
             MeasureId::TrainTiny => "train-tiny",
             MeasureId::TrainMint => "train-mint",
@@ -63,7 +66,10 @@ impl MeasureId {
 
     /// Runs a model (and so depends on the backend).
     pub fn uses_model(self) -> bool {
-        !matches!(self, MeasureId::Features | MeasureId::Metrics)
+        !matches!(
+            self,
+            MeasureId::Features | MeasureId::FeaturesDataset | MeasureId::Metrics
+        )
     }
 
     /// Model size of a model measure ("tiny", "mint", or "paper" for TSMT).
@@ -85,6 +91,9 @@ pub struct Sizes {
     #[serde(default = "default_track_rate")]
     pub track_rate: u32,
     pub feature_repeats: usize,
+    /// Tracks of the dataset-mode feature measure (copies of the track under AIST++ music names).
+    #[serde(default = "default_dataset_tracks")]
+    pub dataset_tracks: usize,
     /// Generated sequences, their frames (seed + generated), reference sequences.
     pub generated: usize,
     pub generated_frames: usize,
@@ -107,6 +116,10 @@ pub struct Sizes {
     pub sample_frames_tsmt: usize,
 }
 
+fn default_dataset_tracks() -> usize {
+    8
+}
+
 fn default_tsmt_steps() -> usize {
     3
 }
@@ -124,6 +137,7 @@ impl Sizes {
             track_seconds: 60.0,
             track_rate: default_track_rate(),
             feature_repeats: if quick { 1 } else { 3 },
+            dataset_tracks: if quick { 4 } else { default_dataset_tracks() },
             generated: 40,
             generated_frames: 1320,
             reference: 1363,
@@ -150,6 +164,8 @@ pub struct Inputs {
     pub dir: PathBuf,
     /// The 60 s track (16-bit WAV at `Sizes::track_rate`).
     pub track: PathBuf,
+    /// An AIST++-layout directory whose `wav/` holds `Sizes::dataset_tracks` copies of the track.
+    pub dataset: PathBuf,
     /// The synthetic metric set and its description for the peer.
     pub set: SyntheticSet,
     pub set_json: PathBuf,
@@ -169,6 +185,7 @@ impl Inputs {
                 "track-{}s-{}hz.wav",
                 sizes.track_seconds, sizes.track_rate
             )),
+            dataset: dir.join(format!("feature-dataset-{}", sizes.dataset_tracks)),
             set: SyntheticSet::aist_sized(
                 7,
                 sizes.generated,
@@ -201,10 +218,25 @@ impl Inputs {
         let want = (sizes.track_seconds * sizes.track_rate as f64).round() as usize;
         let samples: Vec<f64> = song.iter().cycle().take(want).copied().collect();
         qean_io::wav::write_pcm16(&inputs.track, &samples, sizes.track_rate)?;
+        for dir in ["wav", "motions"] {
+            let d = inputs.dataset.join(dir);
+            std::fs::create_dir_all(&d).map_err(|e| qean_io::Error::io(&d, e))?;
+        }
+        for path in inputs.dataset_tracks(sizes) {
+            std::fs::copy(&inputs.track, &path).map_err(|e| qean_io::Error::io(&path, e))?;
+        }
         let set = serde_json::to_string(&inputs.set)
             .map_err(|e| crate::Error::invalid(format!("the benchmark's metric set: {e}")))?;
         qean_io::fsutil::atomic_write(&inputs.set_json, set.as_bytes())?;
         Ok(inputs)
+    }
+
+    /// The dataset-mode tracks: `wav/mBR0.wav`, `wav/mBR1.wav`, … (AIST++ music names; any genre's
+    /// tempo prior is the same work).
+    pub fn dataset_tracks(&self, sizes: &Sizes) -> Vec<PathBuf> {
+        (0..sizes.dataset_tracks)
+            .map(|k| self.dataset.join(format!("wav/mBR{k}.wav")))
+            .collect()
     }
 
     pub fn config(&self, id: MeasureId) -> &Path {
@@ -261,6 +293,7 @@ pub fn run_measure(
     reset_peak_rss();
     let mut entry = match id {
         MeasureId::Features => features(inputs, sizes)?,
+        MeasureId::FeaturesDataset => features_dataset(inputs, sizes)?,
         MeasureId::Metrics => metrics(inputs, sizes)?,
         MeasureId::TrainTiny | MeasureId::TrainMint => train(id, backend, inputs, sizes)?,
         MeasureId::SampleTiny | MeasureId::SampleMint => sampling(id, backend, inputs, sizes)?,
@@ -289,6 +322,56 @@ fn features(inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
             "{} s track at {} Hz, decode + resample + 35-D features, median of {}",
             sizes.track_seconds,
             sizes.track_rate,
+            sizes.feature_repeats.max(1)
+        ),
+    ))
+}
+
+/// `qean features --dataset`'s work on a dataset of `dataset_tracks` tracks: every track's features
+/// computed (side by side) and cached, from an empty cache, with the options of training's feature cache
+/// (`qean_checkpoint::features::ensure_features`: the AIST++ tempo prior of each music ID).
+fn features_dataset(inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
+    let ds = qean_aistpp::dataset::Dataset::open(&inputs.dataset)?;
+    let ids: Vec<String> = (0..sizes.dataset_tracks)
+        .map(|k| format!("mBR{k}"))
+        .collect();
+    let mut times = Vec::new();
+    for _ in 0..sizes.feature_repeats.max(1) {
+        let cache = ds.features_dir();
+        if cache.exists() {
+            std::fs::remove_dir_all(&cache).map_err(|e| qean_io::Error::io(&cache, e))?;
+        }
+        let t = Instant::now();
+        let computed = qean_aistpp::feature_cache::ensure(
+            &ds,
+            &ids,
+            |id| FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(id)).cache_key(),
+            |path, id| {
+                let opts = FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(id));
+                let f = features_for_file(path, &opts)?;
+                Ok((f.data, f.frames))
+            },
+            |_, _, _| {},
+        )?;
+        times.push(t.elapsed().as_secs_f64() / ids.len() as f64);
+        qean_pipeline::ensure!(
+            computed == ids.len(),
+            "computed {computed} of {} tracks",
+            ids.len()
+        );
+    }
+    let per_track = median(times);
+    Ok(Entry::time(
+        MeasureId::FeaturesDataset,
+        "",
+        per_track,
+        "s per track",
+        format!(
+            "{} tracks of {} s at {} Hz into a dataset's feature cache (tracks side by side), {:.2} tracks/s, median of {}",
+            ids.len(),
+            sizes.track_seconds,
+            sizes.track_rate,
+            1.0 / per_track,
             sizes.feature_repeats.max(1)
         ),
     ))

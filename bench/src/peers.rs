@@ -66,6 +66,17 @@ impl Peers {
                     sizes.feature_repeats.max(1).to_string(),
                 ],
             ),
+            MeasureId::FeaturesDataset => (&self.librosa_python, {
+                let mut args = vec![script("features_librosa.py")];
+                args.extend(
+                    inputs
+                        .dataset_tracks(sizes)
+                        .iter()
+                        .map(|p| p.display().to_string()),
+                );
+                args.extend(["--repeats".into(), sizes.feature_repeats.max(1).to_string()]);
+                args
+            }),
             MeasureId::Metrics => (
                 &self.numpy_python,
                 vec![

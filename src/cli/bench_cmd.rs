@@ -29,8 +29,9 @@ pub struct BenchArgs {
     /// Only the tiny model, fewer repeats.
     #[arg(long)]
     pub quick: bool,
-    /// Measures to run (comma-separated): features, metrics, train-tiny, train-mint, sample-tiny,
-    /// sample-mint, train-tsmt, sample-tsmt. Default: all (with --quick: the four tiny ones).
+    /// Measures to run (comma-separated): features (one track), features-dataset (a dataset's tracks side
+    /// by side, as `qean features --dataset`), metrics, train-tiny, train-mint, sample-tiny, sample-mint,
+    /// train-tsmt, sample-tsmt. Default: all (with --quick: the five that take seconds).
     #[arg(long, value_delimiter = ',')]
     pub only: Vec<String>,
     /// Backends for the model measures, each measured (flex; ndarray and wgpu in builds with their
