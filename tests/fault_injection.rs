@@ -185,7 +185,7 @@ fn progress(run: &Path) -> u64 {
     checkpoints(run).last().map_or(0, |c| {
         c.file_name().unwrap().to_string_lossy()[5..]
             .parse()
-            .unwrap()
+            .unwrap_or(0)
     })
 }
 

@@ -174,45 +174,57 @@ pub fn ensure(
     for id in music_ids {
         let audio = dataset.audio_path(id);
         let options = options_of(id);
-        match state(dataset, id, audio.as_deref(), &options) {
-            CacheState::UpToDate | CacheState::Imported => tick(id),
-            CacheState::Missing | CacheState::Stale => todo.push((id, audio, options)),
+        match (state(dataset, id, audio.as_deref(), &options), audio) {
+            (CacheState::UpToDate | CacheState::Imported, _) => tick(id),
+            (CacheState::Missing | CacheState::Stale, Some(audio)) => todo.push((id, audio, options)),
+            // Before any track is computed: a missing file is known at once.
+            (CacheState::Missing | CacheState::Stale, None) => {
+                return Err(Error::at(
+                    dataset.root.join("wav"),
+                    format!("no audio for music {id} (looked for {id}.wav/.ogg/.mp3/.flac) and no cached features"),
+                ))
+            }
         }
     }
-    let one = |(id, audio, options): &(&String, Option<PathBuf>, String)| -> Result<()> {
-        let audio = audio.as_deref().ok_or_else(|| {
-            Error::at(
-                dataset.root.join("wav"),
-                format!("no audio for music {id} (looked for {id}.wav/.ogg/.mp3/.flac) and no cached features"),
-            )
-        })?;
+    let one = |(id, audio, options): &(&String, PathBuf, String)| -> Result<()> {
         let f = compute(audio, id)?;
         store(dataset, id, audio, options, &f)?;
         tick(id);
         Ok(())
     };
-    // One worker a core, each taking the next track in order.
+    // One worker a core, each taking the next track in order, logging where the caller logs (a training
+    // run's subscriber is set for its own thread only).
     let workers = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .min(todo.len());
     let next = AtomicUsize::new(0);
     let results: Vec<Mutex<Option<Result<()>>>> = todo.iter().map(|_| Mutex::new(None)).collect();
+    let dispatch = tracing::dispatcher::get_default(|d| d.clone());
     std::thread::scope(|scope| {
         for _ in 0..workers {
-            scope.spawn(|| loop {
-                let k = next.fetch_add(1, Ordering::SeqCst);
-                let Some(track) = todo.get(k) else { break };
-                let r = one(track);
-                *results[k].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
+            scope.spawn(|| {
+                tracing::dispatcher::with_default(&dispatch, || loop {
+                    let k = next.fetch_add(1, Ordering::SeqCst);
+                    let Some(track) = todo.get(k) else { break };
+                    let r = one(track);
+                    *results[k].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
+                })
             });
         }
     });
-    for r in results {
+    let mut first = None;
+    for (r, (id, ..)) in results.into_iter().zip(&todo) {
         if let Some(Err(e)) = r.into_inner().unwrap_or_else(|e| e.into_inner()) {
-            return Err(e);
+            match first {
+                None => first = Some(e),
+                Some(_) => tracing::warn!("music {id}: {e}"),
+            }
         }
     }
-    Ok(todo.len())
+    match first {
+        Some(e) => Err(e),
+        None => Ok(todo.len()),
+    }
 }
 
 #[cfg(test)]

@@ -91,7 +91,7 @@ pub struct Sizes {
     #[serde(default = "default_track_rate")]
     pub track_rate: u32,
     pub feature_repeats: usize,
-    /// Tracks of the dataset-mode feature measure (copies of the track under AIST++ music names).
+    /// Tracks of the dataset-mode feature measure (copies of the track under AIST++ music names; 2 to 10).
     #[serde(default = "default_dataset_tracks")]
     pub dataset_tracks: usize,
     /// Generated sequences, their frames (seed + generated), reference sequences.
@@ -126,6 +126,17 @@ fn default_tsmt_steps() -> usize {
 
 fn default_tsmt_frames() -> usize {
     30
+}
+
+/// The AIST++ music IDs whose tempo prior is 120 BPM (80 + 10k; house 110 + 5k), the peer's prior: the
+/// dataset-mode tracks are named after them, so both sides track beats from the same prior.
+pub const DATASET_MUSIC: [&str; 10] = [
+    "mBR4", "mPO4", "mLO4", "mMH4", "mLH4", "mHO2", "mWA4", "mKR4", "mJS4", "mJB4",
+];
+
+/// The music IDs of the dataset-mode measure (2 to 10 of them).
+pub fn dataset_music(sizes: &Sizes) -> &'static [&'static str] {
+    &DATASET_MUSIC[..sizes.dataset_tracks.clamp(2, DATASET_MUSIC.len())]
 }
 
 /// TSMT's training batch (the reference script's).
@@ -231,11 +242,11 @@ impl Inputs {
         Ok(inputs)
     }
 
-    /// The dataset-mode tracks: `wav/mBR0.wav`, `wav/mBR1.wav`, … (AIST++ music names; any genre's
-    /// tempo prior is the same work).
+    /// The dataset-mode tracks: `wav/<id>.wav` for the first `dataset_tracks` of [`DATASET_MUSIC`].
     pub fn dataset_tracks(&self, sizes: &Sizes) -> Vec<PathBuf> {
-        (0..sizes.dataset_tracks)
-            .map(|k| self.dataset.join(format!("wav/mBR{k}.wav")))
+        dataset_music(sizes)
+            .iter()
+            .map(|id| self.dataset.join(format!("wav/{id}.wav")))
             .collect()
     }
 
@@ -329,12 +340,10 @@ fn features(inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
 
 /// `qean features --dataset`'s work on a dataset of `dataset_tracks` tracks: every track's features
 /// computed (side by side) and cached, from an empty cache, with the options of training's feature cache
-/// (`qean_checkpoint::features::ensure_features`: the AIST++ tempo prior of each music ID).
+/// (`qean_checkpoint::features::ensure_features`: the AIST++ tempo prior of each music ID, here 120 BPM).
 fn features_dataset(inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
     let ds = qean_aistpp::dataset::Dataset::open(&inputs.dataset)?;
-    let ids: Vec<String> = (0..sizes.dataset_tracks)
-        .map(|k| format!("mBR{k}"))
-        .collect();
+    let ids: Vec<String> = dataset_music(sizes).iter().map(|s| s.to_string()).collect();
     let mut times = Vec::new();
     for _ in 0..sizes.feature_repeats.max(1) {
         let cache = ds.features_dir();
@@ -367,7 +376,7 @@ fn features_dataset(inputs: &Inputs, sizes: &Sizes) -> crate::Result<Entry> {
         per_track,
         "s per track",
         format!(
-            "{} tracks of {} s at {} Hz into a dataset's feature cache (tracks side by side), {:.2} tracks/s, median of {}",
+            "{} tracks of {} s at {} Hz into a dataset's feature cache (tracks side by side, each written to disk), {:.2} tracks/s, median of {}",
             ids.len(),
             sizes.track_seconds,
             sizes.track_rate,
