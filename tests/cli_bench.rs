@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::qean;
+use common::{qean, run_ok};
 
 #[test]
 fn features_measure_with_a_failing_peer() {
@@ -62,18 +62,12 @@ fn features_dataset_measure_fills_a_feature_cache() {
     let d = tempfile::tempdir().unwrap();
     let json = d.path().join("bench.json");
     let work = d.path().join("work");
-    let out = qean()
-        .args(["bench", "--quick", "--only", "features-dataset", "--json"])
-        .arg(&json)
-        .arg("--work-dir")
-        .arg(&work)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
+    let stdout = run_ok(
+        qean()
+            .args(["bench", "--quick", "--only", "features-dataset", "--json"])
+            .arg(&json)
+            .arg("--work-dir")
+            .arg(&work),
     );
     assert!(stdout.contains("| features-dataset | - |"), "{stdout}");
     let report: serde_json::Value =
@@ -86,17 +80,12 @@ fn features_dataset_measure_fills_a_feature_cache() {
     let cache = work.join("feature-dataset-4/features");
     let alone = d.path().join("alone");
     std::fs::create_dir_all(&alone).unwrap();
-    let out = qean()
-        .arg("features")
-        .arg(work.join("track-60s-44100hz.wav"))
-        .arg("--out")
-        .arg(&alone)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        qean()
+            .arg("features")
+            .arg(work.join("track-60s-44100hz.wav"))
+            .arg("--out")
+            .arg(&alone),
     );
     let a = qean_io::npy::read(&alone.join("track-60s-44100hz.npy")).unwrap();
     for id in ["mBR4", "mPO4", "mLO4", "mMH4"] {

@@ -182,11 +182,7 @@ fn run_dirs(out: &Path) -> Vec<PathBuf> {
 
 /// The updates a run has checkpointed so far (its newest checkpoint's step; 0 before the first).
 fn progress(run: &Path) -> u64 {
-    checkpoints(run).last().map_or(0, |c| {
-        c.file_name().unwrap().to_string_lossy()[5..]
-            .parse()
-            .unwrap_or(0)
-    })
+    checkpoints(run).last().map_or(0, |c| checkpoint_step(c))
 }
 
 /// The updates all runs of a sweep have checkpointed so far.

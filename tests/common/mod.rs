@@ -152,12 +152,15 @@ pub fn checkpoints(run: &Path) -> Vec<PathBuf> {
             .to_string_lossy()
             .starts_with("step-")
     });
-    v.sort_by_key(|p| {
-        p.file_name().unwrap().to_string_lossy()[5..]
-            .parse::<u64>()
-            .unwrap_or(0)
-    });
+    v.sort_by_key(|p| checkpoint_step(p));
     v
+}
+
+/// The step of a checkpoint directory `step-N` (0 for another name).
+pub fn checkpoint_step(dir: &Path) -> u64 {
+    dir.file_name()
+        .and_then(|n| n.to_str()?.strip_prefix("step-")?.parse().ok())
+        .unwrap_or(0)
 }
 
 /// The training-set size a run's train.log reports ("(N train sequences").
