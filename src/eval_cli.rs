@@ -117,6 +117,9 @@ pub struct Args {
     /// (1 = off; default: the run's gpt.repetition_penalty).
     #[arg(long, requires = "run")]
     pub repetition_penalty: Option<f64>,
+    /// Checkpoint mode, genre runs: the guidance S of `qean sample --genre-guidance` (default: the run's).
+    #[arg(long, requires = "run", value_name = "S")]
+    pub genre_guidance: Option<f64>,
     /// Checkpoint mode, GPT: the decoded dance's lowest point pinned to the seed's floor over windows of N
     /// frames (0 = off; default: the run's gpt.floor_window).
     #[arg(long, requires = "run")]
@@ -338,6 +341,7 @@ impl Args {
                     .transpose()
                     .map_err(|e: String| anyhow::anyhow!("--decode: {e}"))?,
                 repetition_penalty: self.repetition_penalty,
+                genre_guidance: self.genre_guidance,
                 floor_window: self.floor_window,
                 slide_window: self.slide_window,
                 smooth_sigma: self.smooth_sigma,

@@ -492,7 +492,7 @@ fn genre_stage_trains_resumes_exactly_and_steers_sampling() {
     // --genre: a dance per requested genre, deterministic for one draw seed; another genre, another dance
     // (sharp draws: a 2-step GPT's logits are nearly flat, so its greedy picks hardly depend on anything).
     let song = shared().join("music/Kevin_MacLeod_-_Vibe_Ace.ogg");
-    let sample = |genre: &str, out: &str| {
+    let sample_with = |genre: &str, out: &str, extra: &[&str]| {
         let out = dir.path().join(out);
         run_ok(
             qean()
@@ -502,14 +502,19 @@ fn genre_stage_trains_resumes_exactly_and_steers_sampling() {
                 .arg(&song)
                 .args(["--frames", "240", "--top-k", "0", "--temperature", "0.05"])
                 .args(["--sample-seed", "1"])
+                .args(extra)
                 .args(["--genre", genre, "--out"])
                 .arg(&out),
         );
         std::fs::read(out.join("Kevin_MacLeod_-_Vibe_Ace.joints.npy")).unwrap()
     };
+    let sample = |genre: &str, out: &str| sample_with(genre, out, &[]);
     let br = sample("BR", "br");
     assert_eq!(br, sample("br", "br2"));
     assert_ne!(br, sample("JB", "jb"));
+    // Guidance 1 is the paper's sampling; a stronger one moves the draws further from the plain GPT's.
+    assert_eq!(br, sample_with("BR", "br-g1", &["--genre-guidance", "1"]));
+    assert_ne!(br, sample_with("BR", "br-g4", &["--genre-guidance", "4"]));
 
     // Checkpoint mode (own genre per track) and the control test with a tiny classifier.
     let table = run_ok(
@@ -578,6 +583,26 @@ fn genre_stage_trains_resumes_exactly_and_steers_sampling() {
             .arg(dir.path().join("plain")),
         "--genre needs a genre-control run",
     );
+    for (args, wanted) in [
+        (
+            &["--genre", "BR", "--genre-guidance=-1"][..],
+            "between 0 and 20",
+        ),
+        (&["--genre-guidance", "2"][..], "give --genre"),
+    ] {
+        assert_clean_failure(
+            qean()
+                .args(["sample", "--run"])
+                .arg(&straight)
+                .arg("--music")
+                .arg(&song)
+                .args(args)
+                .arg("--out")
+                .arg(dir.path().join("guided")),
+            wanted,
+        );
+        assert!(!dir.path().join("guided").exists());
+    }
     let bad = dir.path().join("bad");
     for (run, wanted) in [
         (dir.path().join("nope"), "genre.gpt_run"),

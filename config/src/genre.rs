@@ -69,6 +69,9 @@ pub struct GenreConfig {
     /// Weights of the adversarial and diversity terms of the generator loss.
     pub lambda_adv: f64,
     pub lambda_div: f64,
+    /// Sampling: logits = l_plain + s·(l_genre − l_plain), l_plain the frozen GPT's without the genre tokens
+    /// (classifier-free guidance, Ho & Salimans 2022; not in SPEC). 1 = the paper's (l_genre alone).
+    pub guidance: f64,
 }
 
 impl Default for GenreConfig {
@@ -97,6 +100,7 @@ impl GenreConfig {
             tau: 1.0,
             lambda_adv: 1.0,
             lambda_div: 0.0,
+            guidance: 1.0,
         }
     }
 
@@ -115,6 +119,12 @@ impl GenreConfig {
 
     /// Values no genre stage can use, as one message.
     pub fn validate(&self) -> Result<(), String> {
+        if !(0.0..=20.0).contains(&self.guidance) {
+            return Err(format!(
+                "genre.guidance must be between 0 and 20 (1 = the paper's sampling), got {}",
+                self.guidance
+            ));
+        }
         if self.code_dim == 0
             || self.z_dim == 0
             || self.tokens == 0
@@ -150,5 +160,24 @@ impl GenreConfig {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Guidance 1 (the paper's sampling) is the default; outside [0, 20] it is refused.
+    #[test]
+    fn guidance_defaults_to_the_papers_sampling() {
+        assert_eq!(GenreConfig::paper().guidance, 1.0);
+        assert_eq!(GenreConfig::tiny().guidance, 1.0);
+        for bad in [-1.0, 21.0, f64::NAN] {
+            let c = GenreConfig {
+                guidance: bad,
+                ..GenreConfig::tiny()
+            };
+            assert!(c.validate().unwrap_err().contains("guidance"), "{bad}");
+        }
     }
 }

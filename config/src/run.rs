@@ -490,7 +490,7 @@ impl RunConfig {
             audio_len: w,
         };
         match self.spec() {
-            ModelSpec::GenreClf(g) => same(g.window),
+            ModelSpec::GenreClf(g) => same(g.drawn_window()),
             ModelSpec::Vqvae(v) => same(v.window),
             ModelSpec::Gpt(g) | ModelSpec::GptGenre(g, _) | ModelSpec::GptKeyframe(g, _) => {
                 WindowSpec {

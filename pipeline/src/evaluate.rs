@@ -47,6 +47,8 @@ pub struct SamplingOverrides {
     pub decode: Option<qean_config::tsmt::TsmtDecode>,
     /// GPT: the repetition penalty (None: the run's `gpt.repetition_penalty`).
     pub repetition_penalty: Option<f64>,
+    /// Genre runs: the guidance s (None: the run's `genre.guidance`).
+    pub genre_guidance: Option<f64>,
     /// GPT: the floor's window (None: the run's `gpt.floor_window`; 0 = off).
     pub floor_window: Option<usize>,
     /// GPT: the feet's glide window (None: the run's `gpt.slide_window`; 0 = off).
@@ -77,6 +79,7 @@ impl SamplingOverrides {
             top_k: self.top_k,
             temperature: self.temperature,
             repetition_penalty: self.repetition_penalty,
+            genre_guidance: self.genre_guidance,
         }
     }
 }

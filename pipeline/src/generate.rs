@@ -123,6 +123,8 @@ pub struct GenerateOptions {
     pub decode: Option<qean_config::tsmt::TsmtDecode>,
     /// GPT: the repetition penalty (None: the run's `gpt.repetition_penalty`).
     pub repetition_penalty: Option<f64>,
+    /// Genre runs: the guidance s (None: the run's `genre.guidance`).
+    pub genre_guidance: Option<f64>,
     /// GPT: the floor's window (None: the run's `gpt.floor_window`; 0 = off).
     pub floor_window: Option<usize>,
     /// GPT: the feet's glide window (None: the run's `gpt.slide_window`; 0 = off).
@@ -150,6 +152,7 @@ impl GenerateOptions {
             ModelSpec::Gpt(_) | ModelSpec::GptGenre(..) | ModelSpec::GptKeyframe(..)
         );
         let draws = token_model || matches!(spec, ModelSpec::Tsmt(_));
+        crate::gpt::check_guidance(self.genre_guidance, self.genre.is_some())?;
         if !draws && (self.temperature.is_some() || self.top_k.is_some() || self.sample_seed != 0) {
             tracing::warn!(
                 "--temperature, --top-k and --sample-seed are for TSMT and GPT runs; this {:?} run is deterministic and ignores them",

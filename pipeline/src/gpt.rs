@@ -37,6 +37,8 @@ pub struct Picking {
     /// negative) first; 1 = off.
     pub repetition_penalty: f64,
     pub repetition_window: usize,
+    /// Genre runs: the guidance s instead of the run's `genre.guidance` (None: the run's).
+    pub genre_guidance: Option<f64>,
 }
 
 impl Picking {
@@ -49,6 +51,7 @@ impl Picking {
             seed,
             repetition_penalty: o.repetition_penalty.unwrap_or(g.repetition_penalty),
             repetition_window: g.repetition_window,
+            genre_guidance: o.genre_guidance,
         }
     }
 }
@@ -59,6 +62,7 @@ pub struct PickingOverrides {
     pub top_k: Option<usize>,
     pub temperature: Option<f64>,
     pub repetition_penalty: Option<f64>,
+    pub genre_guidance: Option<f64>,
 }
 
 /// The logits with the repetition penalty applied to the codes of `recent` (CTRL's: positive logits
@@ -416,13 +420,46 @@ fn text_rows(
     Tensor::cat(parts, 1)
 }
 
+/// A genre request as the sampler applies it: the genre module, its tokens G [1, n_g, D] and the guidance s.
+pub struct GenreSteer<'a> {
+    pub module: &'a GenreModule,
+    pub tokens: Tensor<3>,
+    pub guidance: f64,
+}
+
+/// A `--genre-guidance` in range and with a genre to steer towards (`genre`), or one line saying why not.
+pub fn check_guidance(guidance: Option<f64>, genre: bool) -> Result<()> {
+    match guidance {
+        Some(s) if !(0.0..=20.0).contains(&s) => Err(Error::msg(format!(
+            "--genre-guidance must be between 0 and 20 (1 = the paper's sampling), got {s}"
+        ))),
+        Some(_) if !genre => Err(Error::msg(
+            "--genre-guidance steers genre-control dances: give --genre on a genre-control run",
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// l_plain + s·(l_genre − l_plain) (`genre.guidance`); the plain logits are computed only when s ≠ 1.
+fn guided(steered: Vec<f32>, s: f64, plain: impl FnOnce() -> Vec<f32>) -> Vec<f32> {
+    if s == 1.0 {
+        return steered;
+    }
+    let s = s as f32;
+    plain()
+        .iter()
+        .zip(&steered)
+        .map(|(p, q)| p + s * (q - p))
+        .collect()
+}
+
 /// Tokens n_total = min(seed + wanted, music tokens) from `seed` tokens and music tokens (n_total × 280);
 /// with `genre`, the genre module steers every M-Base block with the tokens G; with `text`, the head reads
 /// the fusion of both bases inside its interval.
 #[allow(clippy::too_many_arguments)]
 pub fn sample_tokens(
     model: &Gpt,
-    genre: Option<(&GenreModule, Tensor<3>)>,
+    genre: Option<GenreSteer>,
     texts: &[TextControl],
     g: &GptConfig,
     seed: &[usize],
@@ -455,25 +492,33 @@ pub fn sample_tokens(
             .collect();
         let inputs = Tensor::<2, Int>::from_data(TensorData::new(inputs, [1, len]), &device);
         let rows = Tensor::from_data(TensorData::new(rows, [1, len, w]), &device);
-        let h_m = match &genre {
-            Some((module, g_tokens)) => {
-                model
-                    .m_base
-                    .forward_genre(inputs, rows, Some((module, g_tokens.clone())))
+        let last_logits = |h_m: Tensor<3>| -> Vec<f32> {
+            let h = match texts {
+                [] => h_m,
+                _ => text_window(model, g, texts, &tokens, (s, i), h_m),
+            };
+            let logits = model.head.forward(h);
+            logits
+                .narrow(1, len - 1, 1)
+                .into_data()
+                .convert::<f32>()
+                .try_to_vec()
+                .expect("f32")
+        };
+        let last = match &genre {
+            Some(steer) => {
+                let steered = last_logits(model.m_base.forward_genre(
+                    inputs.clone(),
+                    rows.clone(),
+                    Some((steer.module, steer.tokens.clone())),
+                ));
+                let s = picking.genre_guidance.unwrap_or(steer.guidance);
+                guided(steered, s, || {
+                    last_logits(model.m_base.forward(inputs, rows))
+                })
             }
-            None => model.m_base.forward(inputs, rows),
+            None => last_logits(model.m_base.forward(inputs, rows)),
         };
-        let h = match texts {
-            [] => h_m,
-            _ => text_window(model, g, texts, &tokens, (s, i), h_m),
-        };
-        let logits = model.head.forward(h);
-        let last: Vec<f32> = logits
-            .narrow(1, len - 1, 1)
-            .into_data()
-            .convert::<f32>()
-            .try_to_vec()
-            .expect("f32");
         let next = pick(&last, g.codes, picking, &tokens, &mut rng);
         tokens.push(next);
         progress(
@@ -619,7 +664,8 @@ pub struct Sampled {
 /// discriminator is not needed to sample), a keyframe-control run its keyframe module.
 pub struct GptRun {
     pub model: Gpt,
-    pub genre: Option<(GenreModule, usize)>,
+    /// The genre module, z's width and the guidance (`genre.guidance`).
+    pub genre: Option<(GenreModule, usize, f64)>,
     pub keyframe: Option<(KeyframeModule, KeyframeConfig)>,
     pub vq: FrozenVq,
     /// The seam's frames and the floor's and the glide's windows (the run's `recipe.seam_frames`,
@@ -633,7 +679,8 @@ impl GptRun {
         let (model, genre, keyframe) = match ck.load_family(&Device::flex())? {
             FamilyModel::Gpt(model) => (model, None, None),
             FamilyModel::GptGenre(m) => {
-                (m.gpt, Some((m.genre, ck.config.genre_table().z_dim)), None)
+                let c = ck.config.genre_table();
+                (m.gpt, Some((m.genre, c.z_dim, c.guidance)), None)
             }
             FamilyModel::GptKeyframe(m) => (
                 m.gpt,
@@ -652,13 +699,14 @@ impl GptRun {
     }
 
     /// The genre tokens of `choice` (an error for a run without a genre module).
-    fn genre_tokens(
-        &self,
-        choice: Option<GenreChoice>,
-    ) -> Result<Option<(&GenreModule, Tensor<3>)>> {
+    fn genre_tokens(&self, choice: Option<GenreChoice>) -> Result<Option<GenreSteer<'_>>> {
         match (choice, &self.genre) {
             (None, _) => Ok(None),
-            (Some(c), Some((module, z_dim))) => Ok(Some((module, c.tokens(module, *z_dim)))),
+            (Some(c), Some((module, z_dim, guidance))) => Ok(Some(GenreSteer {
+                module,
+                tokens: c.tokens(module, *z_dim),
+                guidance: *guidance,
+            })),
             (Some(_), None) => Err(Error::msg(
                 "--genre needs a genre-control run (model.arch = \"gpt_genre\", configs/control/genre_tiny.toml); this GPT has no genre module",
             )),
@@ -699,6 +747,7 @@ impl GptRun {
         controls: Controls,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<Option<Sampled>> {
+        check_guidance(picking.genre_guidance, controls.genre.is_some())?;
         let genre = self.genre_tokens(controls.genre)?;
         let seed_tokens = self.vq.tokens(seed, seed.frames / g.rate * g.rate)?;
         let available = music.1 / g.rate;
@@ -790,6 +839,7 @@ pub fn generate(
             top_k: opts.top_k,
             temperature: opts.temperature,
             repetition_penalty: opts.repetition_penalty,
+            genre_guidance: opts.genre_guidance,
         },
         opts.sample_seed,
     );
@@ -842,6 +892,20 @@ pub fn generate(
 mod tests {
     use super::*;
 
+    /// Guidance 1 is the steered logits as they are (the plain ones never computed), 0 the plain ones, and
+    /// 2 goes as far again beyond the steered ones.
+    #[test]
+    fn genre_guidance_extrapolates_from_the_plain_logits() {
+        let steered = vec![1.0f32, -2.0, 0.5];
+        let plain = vec![0.0f32, -1.0, 0.5];
+        assert_eq!(guided(steered.clone(), 1.0, || unreachable!()), steered);
+        assert_eq!(guided(steered.clone(), 0.0, || plain.clone()), plain);
+        assert_eq!(
+            guided(steered.clone(), 2.0, || plain.clone()),
+            vec![2.0, -3.0, 0.5]
+        );
+    }
+
     #[test]
     fn picking_forbids_end_keeps_ties_and_is_greedy_by_default() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
@@ -851,6 +915,7 @@ mod tests {
             seed: 0,
             repetition_penalty: 1.0,
             repetition_window: 8,
+            genre_guidance: None,
         };
         // End (index 3) has the largest logit but is never picked; ties go to the first maximum.
         assert_eq!(pick(&[1.0, 2.0, 2.0, 9.0], 3, &greedy, &[], &mut rng), 1);
@@ -876,6 +941,7 @@ mod tests {
             seed: 0,
             repetition_penalty: 2.0,
             repetition_window: 2,
+            genre_guidance: None,
         };
         let logits = [3.0f32, 2.0, -1.0, 9.0];
         // Code 0 (3.0) was just used: 3/2 = 1.5 < 2.0, so code 1 wins.

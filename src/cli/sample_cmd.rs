@@ -113,6 +113,10 @@ pub struct SampleArgs {
     /// picking (1 = off, Bailando's picking; default: the run's gpt.repetition_penalty).
     #[arg(long)]
     pub repetition_penalty: Option<f64>,
+    /// Genre runs: logits = plain + S·(genre − plain), the frozen GPT's without the genre tokens as plain
+    /// (1 = the paper's; larger steers harder; default: the run's genre.guidance). docs/control.md.
+    #[arg(long, value_name = "S")]
+    pub genre_guidance: Option<f64>,
     /// GPT: pin the decoded dance's lowest point to the seed's floor over windows of N frames, so a root
     /// integrated from decoded velocities does not sink through the floor (0 = off, the paper's decoding;
     /// default: the run's gpt.floor_window).
@@ -205,6 +209,7 @@ pub fn sample(a: SampleArgs) -> anyhow::Result<i32> {
         top_k: a.top_k,
         decode,
         repetition_penalty: a.repetition_penalty,
+        genre_guidance: a.genre_guidance,
         floor_window: a.floor_window,
         slide_window: a.slide_window,
         smooth_sigma: a.smooth_sigma,

@@ -12,6 +12,7 @@ use qean_models::control::genre_clf::GenreClassifier;
 use qean_models::tsmt::loss::masked_cross_entropy;
 use qean_motion::motion::{Layout, Motion};
 use qean_motion::pos72::POS72;
+use rand::{Rng, SeedableRng};
 
 use crate::family::{Family, StepContext};
 use qean_aistpp::names::genre_of;
@@ -26,6 +27,17 @@ pub fn clf_of(config: &RunConfig) -> &GenreClfConfig {
     config.genre_clf_table()
 }
 
+/// The augmentation of `config` with an update's seed (`None`: none, for validation).
+fn augment(config: &RunConfig, seed: Option<u64>) -> Augment {
+    let c = clf_of(config);
+    Augment {
+        window: c.window,
+        yaw: c.yaw_augment,
+        tempo: c.tempo_augment,
+        seed,
+    }
+}
+
 /// Mean cross-entropy of logits [B, 10] against labels.
 pub fn clf_loss(logits: Tensor<2>, labels: &[usize], device: &Device) -> Tensor<1> {
     let [b, k] = logits.dims();
@@ -37,18 +49,70 @@ pub fn clf_loss(logits: Tensor<2>, labels: &[usize], device: &Device) -> Tensor<
     )
 }
 
-/// A batch as (windows [B, T, 72], labels).
-fn tensors(batch: &Batch, device: &Device) -> (Tensor<3>, Vec<usize>) {
-    let (b, t) = (batch.len(), batch.spec.motion_len);
+/// How the windows of a batch are turned into the classifier's input.
+#[derive(Debug, Clone, Copy)]
+struct Augment {
+    /// Frames the classifier sees (`genre_clf.window`); a drawn window may be longer.
+    window: usize,
+    /// Turn each window about y by a random angle (`genre_clf.yaw_augment`).
+    yaw: bool,
+    /// The largest tempo factor (`genre_clf.tempo_augment`; 1 = off).
+    tempo: f64,
+    /// The update's random seed; `None` (validation): no augmentation, each window's first frames.
+    seed: Option<u64>,
+}
+
+/// A batch as (windows [B, window, 72], labels), augmented as `aug` says.
+fn tensors(batch: Batch, device: &Device, aug: Augment) -> (Tensor<3>, Vec<usize>) {
+    let (b, drawn, t) = (batch.len(), batch.spec.motion_len, aug.window);
     let labels = batch
         .names
         .iter()
         .map(|n| genre_of(n).unwrap_or(0))
         .collect();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(aug.seed.unwrap_or(0) ^ 0x7E4B_0A11);
+    let mut rows = Vec::with_capacity(b * t * POS72);
+    for w in batch.motion.chunks_exact(drawn * POS72) {
+        let rate = match aug.seed {
+            Some(_) if aug.tempo > 1.0 => rng.random_range(-aug.tempo.ln()..=aug.tempo.ln()).exp(),
+            _ => 1.0,
+        };
+        let span = (t - 1) as f64 * rate;
+        let start = match aug.seed {
+            Some(_) => rng.random_range(0.0..=((drawn - 1) as f64 - span).max(0.0)),
+            None => 0.0,
+        };
+        resample(w, start, rate, t, &mut rows);
+    }
+    if let (true, Some(seed)) = (aug.yaw, aug.seed) {
+        crate::vqvae::yaw(&mut rows, t, seed);
+    }
     (
-        Tensor::from_data(TensorData::new(batch.motion.clone(), [b, t, POS72]), device),
+        Tensor::from_data(TensorData::new(rows, [b, t, POS72]), device),
         labels,
     )
+}
+
+/// `t` pos72 frames of `w` at positions start + k·rate (linear interpolation), appended to `out`; the root's
+/// per-frame velocity (channels 0–2) scales with the rate.
+fn resample(w: &[f32], start: f64, rate: f64, t: usize, out: &mut Vec<f32>) {
+    let last = w.len() / POS72 - 1;
+    for k in 0..t {
+        let p = (start + k as f64 * rate).min(last as f64);
+        let (i, f) = (p.floor() as usize, (p - p.floor()) as f32);
+        let (a, b) = (
+            &w[i * POS72..(i + 1) * POS72],
+            &w[(i + 1).min(last) * POS72..],
+        );
+        out.extend((0..POS72).map(|c| {
+            let v = a[c] + f * (b[c] - a[c]);
+            if c < 3 {
+                v * rate as f32
+            } else {
+                v
+            }
+        }));
+    }
 }
 
 impl Family for GenreClfFamily {
@@ -96,9 +160,9 @@ impl Family for GenreClfFamily {
         drawn: Batch,
         _model: &GenreClassifier,
         device: &Device,
-        _ctx: &StepContext,
+        ctx: &StepContext,
     ) -> Self::Inputs {
-        tensors(&drawn, device)
+        tensors(drawn, device, augment(ctx.config, Some(ctx.rng_seed)))
     }
 
     fn loss(
@@ -119,8 +183,50 @@ impl Family for GenreClfFamily {
         device: &Device,
     ) -> f64 {
         crate::family::mean_over_first_windows(set, config.train.batch_size, |batch| {
-            let (x, labels) = tensors(&batch, device);
+            let (x, labels) = tensors(batch, device, augment(config, None));
             clf_loss(model.forward(x), &labels, device)
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rows(frames: usize) -> Vec<f32> {
+        (0..frames * POS72).map(|v| v as f32).collect()
+    }
+
+    #[test]
+    fn resampling_at_rate_one_keeps_the_frames() {
+        let w = rows(12);
+        let mut out = Vec::new();
+        resample(&w, 0.0, 1.0, 10, &mut out);
+        assert_eq!(out, w[..10 * POS72]);
+    }
+
+    /// At rate 2 every other frame is taken and the root's per-frame velocity doubles; half-way positions
+    /// interpolate; the last frame repeats past the end.
+    #[test]
+    fn resampling_plays_faster_and_slower() {
+        let w = rows(12);
+        let mut out = Vec::new();
+        resample(&w, 1.0, 2.0, 5, &mut out);
+        for k in 0..5 {
+            let src = &w[(1 + 2 * k) * POS72..(2 + 2 * k) * POS72];
+            let got = &out[k * POS72..(k + 1) * POS72];
+            assert_eq!(
+                got[..3],
+                src[..3].iter().map(|v| v * 2.0).collect::<Vec<_>>()[..]
+            );
+            assert_eq!(got[3..], src[3..]);
+        }
+        let mut slow = Vec::new();
+        resample(&w, 0.0, 0.5, 3, &mut slow);
+        assert_eq!(slow[POS72 + 5], 0.5 * (w[5] + w[POS72 + 5]));
+        assert_eq!(slow[POS72], 0.5 * 0.5 * (w[0] + w[POS72]));
+        let mut past = Vec::new();
+        resample(&w, 10.0, 1.5, 3, &mut past);
+        assert_eq!(past[2 * POS72 + 7], w[11 * POS72 + 7]);
     }
 }

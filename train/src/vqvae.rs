@@ -128,7 +128,7 @@ fn with_text_set(mut set: SequenceSet, c: &VqConfig, text: Vec<TextMotion>) -> R
 }
 
 /// A rotation about y by a random angle of every window's positions and velocities (`yaw_augment`).
-fn yaw(rows: &mut [f32], window: usize, seed: u64) {
+pub(crate) fn yaw(rows: &mut [f32], window: usize, seed: u64) {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x05EE_D7A3_u64);
     for w in rows.chunks_exact_mut(window * POS72) {
         let a: f64 = rng.random_range(0.0..std::f64::consts::TAU);

@@ -615,6 +615,7 @@ pub(crate) fn dance(
             top_k: None,
             decode: None,
             repetition_penalty: None,
+            genre_guidance: None,
             floor_window: None,
             slide_window: None,
             smooth_sigma: None,
