@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use crate::dataset::{Dataset, DatasetSummary, ListSource};
 use qean_io::error::{Error, Result};
 use qean_io::pickle::{self, Value};
+use qean_motion::finedance;
 use qean_motion::fk::FkRoot;
 use qean_motion::motion::{joint_ranges, Motion, FPS};
 use qean_motion::skeleton::NUM_JOINTS;
@@ -37,6 +38,8 @@ pub struct NpySummary {
     pub ranges: Option<[[f64; 2]; 3]>,
     pub min: f64,
     pub max: f64,
+    /// The frame rate of its frames (FineDance's 30, otherwise AIST++'s 60).
+    pub fps: f64,
 }
 
 /// Summarise a motion pickle, a `.npy` file or an AIST++-layout directory.
@@ -94,12 +97,22 @@ fn inspect_npy(path: &Path) -> Result<NpySummary> {
         [_, 225] => "motion, 225-D layout (frames × 225)",
         [_, 219] => "motion, 219-D layout (frames × 219)",
         [_, 72] => "SMPL axis-angle poses (frames × 72)",
+        [_, finedance::WIDTH] => {
+            "FineDance motion (frames × 315: translation + 52 joints × 6-D rotation, 30 fps)"
+        }
         _ => "array",
     };
-    let ranges = (a.shape.len() == 3 && a.shape[1] == NUM_JOINTS && a.shape[2] == 3).then(|| {
-        let pts: Vec<[f64; 3]> = a.data.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-        joint_ranges(&pts)
-    });
+    let fine = matches!(a.shape.as_slice(), [_, finedance::WIDTH]);
+    let ranges = if fine {
+        // The 24 SMPL joints of the motion it reads as (qean_motion::finedance).
+        let m = finedance::to_motion(&a.data, a.shape[0]).map_err(|e| Error::at(path, e))?;
+        Some(joint_ranges(&m.joints(FkRoot::Smpl)))
+    } else {
+        (a.shape.len() == 3 && a.shape[1] == NUM_JOINTS && a.shape[2] == 3).then(|| {
+            let pts: Vec<[f64; 3]> = a.data.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            joint_ranges(&pts)
+        })
+    };
     let (min, max) = a
         .data
         .iter()
@@ -114,6 +127,7 @@ fn inspect_npy(path: &Path) -> Result<NpySummary> {
         ranges,
         min,
         max,
+        fps: if fine { finedance::FPS } else { FPS },
     })
 }
 
@@ -146,8 +160,9 @@ impl fmt::Display for Summary {
                 if let Some(frames) = n.shape.first().filter(|_| n.shape.len() >= 2) {
                     writeln!(
                         f,
-                        "frames: {frames} ({:.3} s at {FPS} fps)",
-                        *frames as f64 / FPS
+                        "frames: {frames} ({:.3} s at {} fps)",
+                        *frames as f64 / n.fps,
+                        n.fps
                     )?;
                 }
                 writeln!(f, "value range: [{:.6}, {:.6}]", n.min, n.max)?;

@@ -1,10 +1,11 @@
 //! qean-aistpp: the AIST++ dataset. Sequence and music names (genres, tempo priors), the official splits
 //! and ignore list, dataset directories, training windows and their sampler, the music-feature cache, and
-//! `inspect` for any file or directory of the dataset; and a user's text–motion set in the HumanML3D layout
+//! `inspect` for any file or directory of the dataset; FineDance motion files (`finedance`); and a user's text–motion set in the HumanML3D layout
 //! (`text_set`).
 
 pub mod dataset;
 pub mod feature_cache;
+pub mod finedance;
 pub mod inspect;
 pub mod names;
 pub mod text_set;
