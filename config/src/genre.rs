@@ -16,6 +16,9 @@ pub enum XattnOn {
     All,
 }
 
+/// The guidance a genre stage samples with (`genre.guidance`, `--genre-guidance`): 1 is the paper's.
+pub const GUIDANCE_RANGE: std::ops::RangeInclusive<f64> = 0.0..=20.0;
+
 /// The adversarial loss (eq. 4).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -119,7 +122,7 @@ impl GenreConfig {
 
     /// Values no genre stage can use, as one message.
     pub fn validate(&self) -> Result<(), String> {
-        if !(0.0..=20.0).contains(&self.guidance) {
+        if !GUIDANCE_RANGE.contains(&self.guidance) {
             return Err(format!(
                 "genre.guidance must be between 0 and 20 (1 = the paper's sampling), got {}",
                 self.guidance

@@ -430,7 +430,7 @@ pub struct GenreSteer<'a> {
 /// A `--genre-guidance` in range and with a genre to steer towards (`genre`), or one line saying why not.
 pub fn check_guidance(guidance: Option<f64>, genre: bool) -> Result<()> {
     match guidance {
-        Some(s) if !(0.0..=20.0).contains(&s) => Err(Error::msg(format!(
+        Some(s) if !qean_config::genre::GUIDANCE_RANGE.contains(&s) => Err(Error::msg(format!(
             "--genre-guidance must be between 0 and 20 (1 = the paper's sampling), got {s}"
         ))),
         Some(_) if !genre => Err(Error::msg(

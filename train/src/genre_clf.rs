@@ -27,17 +27,6 @@ pub fn clf_of(config: &RunConfig) -> &GenreClfConfig {
     config.genre_clf_table()
 }
 
-/// The augmentation of `config` with an update's seed (`None`: none, for validation).
-fn augment(config: &RunConfig, seed: Option<u64>) -> Augment {
-    let c = clf_of(config);
-    Augment {
-        window: c.window,
-        yaw: c.yaw_augment,
-        tempo: c.tempo_augment,
-        seed,
-    }
-}
-
 /// Mean cross-entropy of logits [B, 10] against labels.
 pub fn clf_loss(logits: Tensor<2>, labels: &[usize], device: &Device) -> Tensor<1> {
     let [b, k] = logits.dims();
@@ -49,42 +38,37 @@ pub fn clf_loss(logits: Tensor<2>, labels: &[usize], device: &Device) -> Tensor<
     )
 }
 
-/// How the windows of a batch are turned into the classifier's input.
-#[derive(Debug, Clone, Copy)]
-struct Augment {
-    /// Frames the classifier sees (`genre_clf.window`); a drawn window may be longer.
-    window: usize,
-    /// Turn each window about y by a random angle (`genre_clf.yaw_augment`).
-    yaw: bool,
-    /// The largest tempo factor (`genre_clf.tempo_augment`; 1 = off).
-    tempo: f64,
-    /// The update's random seed; `None` (validation): no augmentation, each window's first frames.
+/// A batch as (windows [B, genre_clf.window, 72], labels). With an update's `seed`, each window is played at
+/// a random tempo (`tempo_augment`) from a random start and turned about y (`yaw_augment`); without one
+/// (validation), each drawn window's first frames as they are.
+fn tensors(
+    batch: Batch,
+    device: &Device,
+    c: &GenreClfConfig,
     seed: Option<u64>,
-}
-
-/// A batch as (windows [B, window, 72], labels), augmented as `aug` says.
-fn tensors(batch: Batch, device: &Device, aug: Augment) -> (Tensor<3>, Vec<usize>) {
-    let (b, drawn, t) = (batch.len(), batch.spec.motion_len, aug.window);
+) -> (Tensor<3>, Vec<usize>) {
+    let (b, drawn, t) = (batch.len(), batch.spec.motion_len, c.window);
     let labels = batch
         .names
         .iter()
         .map(|n| genre_of(n).unwrap_or(0))
         .collect();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(aug.seed.unwrap_or(0) ^ 0x7E4B_0A11);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed.unwrap_or(0) ^ 0x7E4B_0A11);
     let mut rows = Vec::with_capacity(b * t * POS72);
+    let tempo = c.tempo_augment;
     for w in batch.motion.chunks_exact(drawn * POS72) {
-        let rate = match aug.seed {
-            Some(_) if aug.tempo > 1.0 => rng.random_range(-aug.tempo.ln()..=aug.tempo.ln()).exp(),
+        let rate = match seed {
+            Some(_) if tempo > 1.0 => rng.random_range(-tempo.ln()..=tempo.ln()).exp(),
             _ => 1.0,
         };
         let span = (t - 1) as f64 * rate;
-        let start = match aug.seed {
+        let start = match seed {
             Some(_) => rng.random_range(0.0..=((drawn - 1) as f64 - span).max(0.0)),
             None => 0.0,
         };
         resample(w, start, rate, t, &mut rows);
     }
-    if let (true, Some(seed)) = (aug.yaw, aug.seed) {
+    if let (true, Some(seed)) = (c.yaw_augment, seed) {
         crate::vqvae::yaw(&mut rows, t, seed);
     }
     (
@@ -162,7 +146,7 @@ impl Family for GenreClfFamily {
         device: &Device,
         ctx: &StepContext,
     ) -> Self::Inputs {
-        tensors(drawn, device, augment(ctx.config, Some(ctx.rng_seed)))
+        tensors(drawn, device, clf_of(ctx.config), Some(ctx.rng_seed))
     }
 
     fn loss(
@@ -183,7 +167,7 @@ impl Family for GenreClfFamily {
         device: &Device,
     ) -> f64 {
         crate::family::mean_over_first_windows(set, config.train.batch_size, |batch| {
-            let (x, labels) = tensors(batch, device, augment(config, None));
+            let (x, labels) = tensors(batch, device, clf_of(config), None);
             clf_loss(model.forward(x), &labels, device)
         })
     }
