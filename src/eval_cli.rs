@@ -20,7 +20,7 @@ use qean_pipeline::evaluate::{RunEvalRequest, SamplingOverrides};
 /// BeatAlign, computed as Bailando's and mint's reference code computes them (bugs included by
 /// default; see --metrics-mode).
 #[derive(Debug, Parser)]
-#[command(about = "Score dances with the AIST++ metrics: FID_k, FID_g, Dist_k, Dist_g, BeatAlign")]
+#[command(about = "Score dances: FID_k, FID_g, Dist_k, Dist_g, BeatAlign, motion energy, PFC")]
 pub struct Args {
     /// Directory of generated motions, seed frames first: joint positions as .npy (T, 24, 3) or (T, 72), model
     /// vectors .npy (T, 225|219), AIST++ .pkl (forward kinematics applied) or .bvh.
@@ -37,7 +37,7 @@ pub struct Args {
     /// Checkpoint mode: which checkpoint of --run (step-N, N or a path; default the newest).
     #[arg(long, requires = "run")]
     pub checkpoint: Option<String>,
-    /// Checkpoint mode and --task inbetween: the AIST++-layout dataset (motions/, wav/, splits).
+    /// Checkpoint mode and --task inbetween: the dataset (AIST++, FineDance or a folder of dances; detected).
     #[arg(long)]
     pub data: Option<PathBuf>,
     /// What to score: dances (generated motions; the default) or inbetween (Lin's keyframe benchmark:
@@ -305,7 +305,7 @@ impl Args {
         let data = self
             .data
             .clone()
-            .context("--run needs --data DIR (the AIST++-layout dataset)")?;
+            .context("--run needs --data DIR (the dataset)")?;
         let max_frames = match self.protocol_preset.as_slice() {
             [] => self.max_frames,
             [p] => p.sample_frames(),
@@ -494,7 +494,7 @@ fn run_inbetween(args: &Args) -> anyhow::Result<String> {
     let data = args
         .data
         .clone()
-        .context("--task inbetween needs --data DIR (the AIST++-layout dataset)")?;
+        .context("--task inbetween needs --data DIR (the dataset)")?;
     let out = args
         .out
         .clone()

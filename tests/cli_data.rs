@@ -349,7 +349,7 @@ fn features_of_a_synthetic_dataset() {
     let d = qean_aistpp::dataset::Dataset::open(&ds).unwrap();
     let mut checked = 0;
     for id in ["mBR0", "mHO5"] {
-        if qean_aistpp::dataset::Dataset::music_ids(&d.all_sequences().unwrap())
+        if d.music_ids(&d.all_sequences().unwrap())
             .contains(&id.to_string())
         {
             let (f, frames) = qean_aistpp::feature_cache::load(&d, id).unwrap();

@@ -1,4 +1,5 @@
-//! An AIST++-layout dataset directory (SPEC §1.3):
+//! A dataset directory: its layout (AIST++'s, SPEC §1.3; FineDance's; a plain folder: `crate::layout`), its
+//! split lists and ignore list, and the sequences' motions, music and genres, the same for every layout.
 //!
 //! ```text
 //! DIR/motions/<sequence>.pkl
@@ -8,13 +9,16 @@
 //! ```
 //!
 //! When the split lists or the ignore list are missing, the official AIST++ lists shipped with this crate are
-//! used (train and test from the AIST++ release; val derived from test by the mint rule `_ch02` → `_ch01`).
+//! used (train and test from the AIST++ release; val derived from test by the mint rule `_ch02` → `_ch01`);
+//! for FineDance, FineDance@Genre's; for a folder, `layout::folder_splits`.
 
 use std::collections::{BTreeMap, HashSet};
 use std::path::{Path, PathBuf};
 
-use crate::names::{music_id_of, SequenceName};
+use crate::layout::{folder_splits, DataLayout, FineDanceSplit};
+use crate::names::{genre_of, music_id_of};
 use qean_io::error::{Error, Result};
+use qean_motion::Motion;
 
 const EMBEDDED_TRAIN: &str = include_str!("../assets/aistpp/splits/crossmodal_train.txt");
 const EMBEDDED_VAL: &str = include_str!("../assets/aistpp/splits/crossmodal_val.txt");
@@ -86,49 +90,78 @@ pub fn parse_list(text: &str) -> Vec<String> {
         .collect()
 }
 
+/// A split list file: one error naming the file if it is empty or holds a name its layout cannot have.
+fn read_list(path: &Path, layout: DataLayout) -> Result<Vec<String>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let names = parse_list(&text);
+    if names.is_empty() {
+        return Err(Error::at(path, "split file is empty"));
+    }
+    for n in &names {
+        layout.check_name(n).map_err(|m| Error::at(path, m))?;
+    }
+    Ok(names)
+}
+
 /// An opened dataset directory.
 #[derive(Debug, Clone)]
 pub struct Dataset {
     pub root: PathBuf,
+    pub layout: DataLayout,
     splits: BTreeMap<Split, (Vec<String>, ListSource)>,
     ignore: HashSet<String>,
     ignore_source: ListSource,
 }
 
 impl Dataset {
-    /// Open `dir`: it must exist and hold a `motions/` directory. Split lists are read now.
+    /// Open `dir`, its layout told by what it holds (`DataLayout::detect`). Split lists are read now.
     pub fn open(dir: &Path) -> Result<Dataset> {
-        if !dir.exists() {
-            return Err(Error::at(dir, "dataset directory does not exist"));
+        let layout = DataLayout::detect(dir)?;
+        Dataset::open_as(dir, layout)
+    }
+
+    /// Open `dir` as a dataset of `layout`, or of the layout it holds when `None`.
+    pub fn open_with(dir: &Path, layout: Option<DataLayout>) -> Result<Dataset> {
+        match layout {
+            Some(layout) => Dataset::open_as(dir, layout),
+            None => Dataset::open(dir),
         }
-        if !dir.is_dir() {
-            return Err(Error::at(
-                dir,
-                "is not a directory (expected an AIST++-layout dataset)",
-            ));
-        }
-        let motions = dir.join("motions");
+    }
+
+    /// Open `dir` as a dataset of `layout`; its motions directory must exist.
+    pub fn open_as(dir: &Path, layout: DataLayout) -> Result<Dataset> {
+        let motions = layout.motions_dir(dir);
         if !motions.is_dir() {
             return Err(Error::at(
                 dir,
-                "not an AIST++-layout dataset: no motions/ directory (expected motions/*.pkl, wav/, splits/)",
+                format!(
+                    "not a {} dataset: no {} directory",
+                    layout.name(),
+                    motions.display()
+                ),
             ));
         }
+        let defaults = Dataset::default_lists(dir, layout)?;
+        let listed: Vec<PathBuf> = Split::ALL
+            .iter()
+            .map(|s| layout.split_file(dir, *s))
+            .collect();
+        if layout != DataLayout::Aistpp && listed.iter().any(|p| p.exists()) {
+            // A partial set of lists would mix the user's split with the embedded one.
+            if let Some(missing) = listed.iter().find(|p| !p.exists()) {
+                return Err(Error::at(
+                    missing,
+                    "split list missing: a FineDance or folder dataset lists all of train.txt, val.txt and test.txt under splits/, or none",
+                ));
+            }
+        }
         let mut splits = BTreeMap::new();
-        for split in Split::ALL {
-            let path = dir.join("splits").join(split.file_name());
+        for (split, fallback) in Split::ALL.into_iter().zip(defaults.iter()) {
+            let path = layout.split_file(dir, split);
             let entry = if path.exists() {
-                let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-                let names = parse_list(&text);
-                if names.is_empty() {
-                    return Err(Error::at(&path, "split file is empty"));
-                }
-                for n in &names {
-                    SequenceName::parse(n).map_err(|e| Error::at(&path, e.message))?;
-                }
-                (names, ListSource::File(path))
+                (read_list(&path, layout)?, ListSource::File(path))
             } else {
-                (parse_list(split.embedded()), ListSource::Embedded)
+                (fallback.clone(), ListSource::Embedded)
             };
             splits.insert(split, entry);
         }
@@ -138,13 +171,31 @@ impl Dataset {
                 std::fs::read_to_string(&ignore_path).map_err(|e| Error::io(&ignore_path, e))?;
             (parse_list(&text), ListSource::File(ignore_path))
         } else {
-            (parse_list(EMBEDDED_IGNORE), ListSource::Embedded)
+            (defaults[3].clone(), ListSource::Embedded)
         };
         Ok(Dataset {
             root: dir.to_path_buf(),
+            layout,
             splits,
             ignore: ignore.into_iter().collect(),
             ignore_source,
+        })
+    }
+
+    /// The lists used where the directory has none: train, val, test and ignore.
+    fn default_lists(dir: &Path, layout: DataLayout) -> Result<[Vec<String>; 4]> {
+        Ok(match layout {
+            DataLayout::Aistpp => [
+                parse_list(Split::Train.embedded()),
+                parse_list(Split::Val.embedded()),
+                parse_list(Split::Test.embedded()),
+                parse_list(EMBEDDED_IGNORE),
+            ],
+            DataLayout::FineDance => FineDanceSplit::Genre.lists(),
+            DataLayout::Folder => {
+                let [train, val, test] = folder_splits(&layout.list_motions(dir)?);
+                [train, val, test, Vec::new()]
+            }
         })
     }
 
@@ -176,19 +227,74 @@ impl Dataset {
     }
 
     pub fn motions_dir(&self) -> PathBuf {
-        self.root.join("motions")
+        self.layout.motions_dir(&self.root)
     }
 
     pub fn motion_path(&self, name: &str) -> PathBuf {
-        self.motions_dir().join(format!("{name}.pkl"))
+        self.layout.motion_path(&self.root, name)
     }
 
-    /// The audio file of a music ID, if present under `wav/`.
+    /// The motion of sequence `name` as the 60-fps SMPL motion every model takes, or one error naming its file.
+    pub fn read_motion(&self, name: &str) -> Result<Motion> {
+        self.layout.read_motion(&self.motion_path(name))
+    }
+
+    /// Where the music files are (`wav/`, `music_wav/`, or the folder itself).
+    pub fn audio_dir(&self) -> PathBuf {
+        self.layout.audio_dir(&self.root)
+    }
+
+    /// The audio file of a music ID, if present.
     pub fn audio_path(&self, music_id: &str) -> Option<PathBuf> {
         AUDIO_EXTENSIONS
             .iter()
-            .map(|ext| self.root.join("wav").join(format!("{music_id}.{ext}")))
+            .map(|ext| self.audio_dir().join(format!("{music_id}.{ext}")))
             .find(|p| p.is_file())
+    }
+
+    /// The music a sequence dances to: AIST++'s music ID from its name; in the other layouts the music file
+    /// has the dance's own name.
+    pub fn music_id(&self, name: &str) -> Option<String> {
+        match self.layout {
+            DataLayout::Aistpp => music_id_of(name),
+            DataLayout::FineDance | DataLayout::Folder => Some(name.to_string()),
+        }
+    }
+
+    /// FineDance's genre label of a sequence (`style2` of `label_json/<name>.json`, e.g. "Breaking", "Dai";
+    /// `None` where the file is absent or the layout has no labels), or an error naming a malformed file.
+    pub fn genre_label(&self, name: &str) -> Result<Option<String>> {
+        let path = self.root.join("label_json").join(format!("{name}.json"));
+        if self.layout != DataLayout::FineDance || !path.is_file() {
+            return Ok(None);
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+        let value: serde_json::Value = serde_json::from_str(&text)
+            .map_err(|e| Error::at(&path, format!("not a JSON label file: {e}")))?;
+        match value.get("style2").and_then(|v| v.as_str()) {
+            Some(label) => match crate::layout::finedance_genre(label) {
+                Some(genre) => Ok(Some(genre.to_string())),
+                None => Err(Error::at(
+                    &path,
+                    format!(
+                        "unknown FineDance genre \"{label}\" (known: {})",
+                        crate::layout::FINEDANCE_GENRES.join(", ")
+                    ),
+                )),
+            },
+            None => Err(Error::at(
+                &path,
+                "a FineDance label file needs a \"style2\" genre (beside \"name\" and \"style1\")",
+            )),
+        }
+    }
+
+    /// The AIST++ genre (index into `names::GENRES`) of a sequence; other layouts have none of these ten.
+    pub fn genre(&self, name: &str) -> Option<usize> {
+        match self.layout {
+            DataLayout::Aistpp => genre_of(name),
+            DataLayout::FineDance | DataLayout::Folder => None,
+        }
     }
 
     /// The directory where cached 35-D music features live (`DIR/features/<music ID>.npy`).
@@ -198,26 +304,14 @@ impl Dataset {
 
     /// Every motion file present (stems), sorted, ignored names removed: the GT reference set of SPEC §1.6.
     pub fn all_sequences(&self) -> Result<Vec<String>> {
-        let dir = self.motions_dir();
-        let mut names = Vec::new();
-        for entry in std::fs::read_dir(&dir).map_err(|e| Error::io(&dir, e))? {
-            let entry = entry.map_err(|e| Error::io(&dir, e))?;
-            let path = entry.path();
-            if path.extension().and_then(|e| e.to_str()) == Some("pkl") {
-                if let Some(stem) = path.file_stem().and_then(|s| s.to_str()) {
-                    if !self.ignore.contains(stem) {
-                        names.push(stem.to_string());
-                    }
-                }
-            }
-        }
-        names.sort();
+        let mut names = self.layout.list_motions(&self.root)?;
+        names.retain(|n| !self.ignore.contains(n));
         Ok(names)
     }
 
     /// Music IDs used by the given sequences, sorted and de-duplicated.
-    pub fn music_ids<'a>(names: impl IntoIterator<Item = &'a String>) -> Vec<String> {
-        let mut ids: Vec<String> = names.into_iter().filter_map(|n| music_id_of(n)).collect();
+    pub fn music_ids<'a>(&self, names: impl IntoIterator<Item = &'a String>) -> Vec<String> {
+        let mut ids: Vec<String> = names.into_iter().filter_map(|n| self.music_id(n)).collect();
         ids.sort();
         ids.dedup();
         ids
@@ -234,7 +328,7 @@ impl Dataset {
                 .filter(|n| !self.motion_path(n).is_file())
                 .cloned()
                 .collect();
-            let music = Self::music_ids(&usable);
+            let music = self.music_ids(&usable);
             let missing_music: Vec<String> = music
                 .iter()
                 .filter(|m| self.audio_path(m).is_none())
@@ -253,6 +347,7 @@ impl Dataset {
         }
         Ok(DatasetSummary {
             root: self.root.clone(),
+            layout: self.layout,
             motion_files: self.all_sequences()?.len(),
             splits,
         })
@@ -274,6 +369,7 @@ pub struct SplitSummary {
 #[derive(Debug, Clone)]
 pub struct DatasetSummary {
     pub root: PathBuf,
+    pub layout: DataLayout,
     /// Motion files present and not ignored.
     pub motion_files: usize,
     pub splits: Vec<SplitSummary>,
@@ -300,13 +396,12 @@ mod tests {
         assert_eq!(ds.ignore.len(), 45);
         assert_eq!(ds.split(Split::Train).len(), 952);
         assert_eq!(ds.split(Split::Test).len(), 20);
-        let train_music: HashSet<String> = Dataset::music_ids(&ds.split(Split::Train))
-            .into_iter()
-            .collect();
-        let test_music = Dataset::music_ids(&ds.split(Split::Test));
+        let train_music: HashSet<String> =
+            ds.music_ids(&ds.split(Split::Train)).into_iter().collect();
+        let test_music = ds.music_ids(&ds.split(Split::Test));
         assert_eq!(test_music.len(), 10);
         assert!(test_music.iter().all(|m| !train_music.contains(m)));
-        assert_eq!(Dataset::music_ids(&ds.split(Split::Val)), test_music);
+        assert_eq!(ds.music_ids(&ds.split(Split::Val)), test_music);
         assert_eq!(*ds.split_source(Split::Train), ListSource::Embedded);
     }
 
@@ -341,5 +436,65 @@ mod tests {
         std::fs::write(d.path().join("splits/crossmodal_test.txt"), "not_a_name\n").unwrap();
         let e = Dataset::open(d.path()).unwrap_err();
         assert!(e.to_string().contains("not an AIST++ sequence name"), "{e}");
+    }
+
+    /// A FineDance directory: its layout detected, FineDance@Genre's lists when it has none, its own when it
+    /// has all three, an error naming the file when one is missing; genre labels read or refused.
+    #[test]
+    fn finedance_directories() {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::create_dir(d.path().join("motion")).unwrap();
+        let ds = Dataset::open(d.path()).unwrap();
+        assert_eq!(ds.layout, DataLayout::FineDance);
+        assert_eq!(ds.split(Split::Test).len(), 18);
+        assert!(ds.split(Split::Train).contains(&"001".to_string()));
+        assert_eq!(ds.music_id("063").as_deref(), Some("063"));
+        assert_eq!(ds.motion_path("063"), d.path().join("motion/063.npy"));
+        assert_eq!(ds.audio_dir(), d.path().join("music_wav"));
+        assert_eq!(ds.genre("063"), None);
+        std::fs::create_dir(d.path().join("splits")).unwrap();
+        std::fs::write(d.path().join("splits/train.txt"), "001\n002\n").unwrap();
+        let e = Dataset::open(d.path()).unwrap_err().to_string();
+        assert!(
+            e.contains("splits/val.txt") && e.contains("split list missing"),
+            "{e}"
+        );
+        std::fs::write(d.path().join("splits/test.txt"), "003\n").unwrap();
+        std::fs::write(d.path().join("splits/val.txt"), "3\n").unwrap();
+        let e = Dataset::open(d.path()).unwrap_err().to_string();
+        assert!(
+            e.contains("val.txt") && e.contains("not a FineDance sequence ID"),
+            "{e}"
+        );
+        std::fs::write(d.path().join("splits/val.txt"), "003\n").unwrap();
+        let ds = Dataset::open(d.path()).unwrap();
+        assert_eq!(
+            ds.split(Split::Train),
+            vec!["001".to_string(), "002".to_string()]
+        );
+        std::fs::create_dir(d.path().join("label_json")).unwrap();
+        let label = |text: &str| {
+            std::fs::write(d.path().join("label_json/001.json"), text).unwrap();
+            ds.genre_label("001")
+        };
+        assert_eq!(
+            label(r#"{"name": "x", "style1": "Folk", "style2": "Tai"}"#)
+                .unwrap()
+                .as_deref(),
+            Some("Dai")
+        );
+        assert_eq!(ds.genre_label("002").unwrap(), None);
+        let e = label(r#"{"name": "x", "style1": "Folk", "style2": "Polka"}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("001.json") && e.contains("unknown FineDance genre \"Polka\""),
+            "{e}"
+        );
+        let e = label("{").unwrap_err().to_string();
+        assert!(
+            e.contains("001.json") && e.contains("not a JSON label file") && !e.contains('\n'),
+            "{e}"
+        );
     }
 }

@@ -180,7 +180,7 @@ pub fn ensure(
             // Before any track is computed: a missing file is known at once.
             (CacheState::Missing | CacheState::Stale, None) => {
                 return Err(Error::at(
-                    dataset.root.join("wav"),
+                    dataset.audio_dir(),
                     format!("no audio for music {id} (looked for {id}.wav/.ogg/.mp3/.flac) and no cached features"),
                 ))
             }

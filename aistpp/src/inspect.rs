@@ -4,6 +4,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use crate::dataset::{Dataset, DatasetSummary, ListSource};
+use crate::layout::DataLayout;
 use qean_io::error::{Error, Result};
 use qean_io::pickle::{self, Value};
 use qean_motion::finedance;
@@ -173,12 +174,25 @@ impl fmt::Display for Summary {
                 Ok(())
             }
             Summary::Dataset(d) => {
-                writeln!(f, "dataset: {}", d.root.display())?;
+                writeln!(
+                    f,
+                    "dataset: {} ({} layout)",
+                    d.root.display(),
+                    d.layout.name()
+                )?;
                 writeln!(f, "motion files (not ignored): {}", d.motion_files)?;
                 for s in &d.splits {
-                    let src = match &s.source {
-                        ListSource::File(p) => p.display().to_string(),
-                        ListSource::Embedded => "official AIST++ list (embedded)".into(),
+                    let src = match (&s.source, d.layout) {
+                        (ListSource::File(p), _) => p.display().to_string(),
+                        (ListSource::Embedded, DataLayout::Aistpp) => {
+                            "official AIST++ list (embedded)".into()
+                        }
+                        (ListSource::Embedded, DataLayout::FineDance) => {
+                            "FineDance@Genre list (embedded)".into()
+                        }
+                        (ListSource::Embedded, DataLayout::Folder) => {
+                            "no list: every tenth name held out".into()
+                        }
                     };
                     writeln!(
                         f,

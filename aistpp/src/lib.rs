@@ -1,4 +1,4 @@
-//! qean-aistpp: the AIST++ dataset. Sequence and music names (genres, tempo priors), the official splits
+//! qean-aistpp: the datasets (AIST++; FineDance and a plain folder of dances through `layout`). Sequence and music names (genres, tempo priors), the official splits
 //! and ignore list, dataset directories, training windows and their sampler, the music-feature cache, and
 //! `inspect` for any file or directory of the dataset; FineDance motion files (`finedance`); and a user's text–motion set in the HumanML3D layout
 //! (`text_set`).
@@ -7,6 +7,7 @@ pub mod dataset;
 pub mod feature_cache;
 pub mod finedance;
 pub mod inspect;
+pub mod layout;
 pub mod names;
 pub mod text_set;
 pub mod windows;

@@ -11,9 +11,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::dataset::{Dataset, Split};
-use crate::names::music_id_of;
 use qean_io::error::{Error, Result};
-use qean_motion::motion::{Layout, Motion};
+use qean_motion::motion::Layout;
 
 /// Number of columns of the music features.
 pub const AUDIO_DIM: usize = 35;
@@ -124,8 +123,9 @@ impl SequenceSet {
                     format!("motion of {} sequence {name} is missing", split.name()),
                 ));
             }
-            let motion = Motion::read_pkl(&path)?;
-            let music = music_id_of(&name)
+            let motion = dataset.read_motion(&name)?;
+            let music = dataset
+                .music_id(&name)
                 .ok_or_else(|| Error::at(&path, "no music ID in the sequence name"))?;
             if !cache.contains_key(&music) {
                 let (data, frames) = features(&music)?;

@@ -195,6 +195,25 @@ fn assemble(
     })
 }
 
+/// What `qean inspect` says of an audio file: duration, rate, channels, feature frames, tempo, beats, onsets.
+pub fn describe_file(path: &Path, opts: &FeatureOptions) -> Result<String> {
+    let audio = crate::load_audio(path, &crate::LoadOptions::default())?;
+    let f = music_features(&audio.samples, opts)?;
+    Ok(format!(
+        "audio: {}\nduration: {:.3} s\nsample rate: {} Hz\nchannels: {}\nfeature frames: {} (60 fps)\n\
+         tempo: {:.2} BPM (start_bpm {})\nbeats: {}\nonset peaks: {}\n",
+        path.display(),
+        audio.duration,
+        audio.original_rate,
+        audio.channels,
+        f.frames,
+        f.tempo_bpm,
+        opts.start_bpm,
+        f.beats.len(),
+        f.onsets.len()
+    ))
+}
+
 /// Load a file (`librosa.load(path, sr=30720)`) and compute its 35-D feature.
 pub fn features_for_file(path: &Path, opts: &FeatureOptions) -> Result<MusicFeatures> {
     let audio = load_audio(

@@ -9,7 +9,7 @@ use qean_io::error::Result;
 /// Makes sure every music ID of `names` has cached features (the default options of
 /// `qean features --dataset`), computing the missing ones.
 pub fn ensure_features(ds: &Dataset, names: &[String]) -> Result<usize> {
-    let ids = Dataset::music_ids(names);
+    let ids = ds.music_ids(names);
     let computed = feature_cache::ensure(
         ds,
         &ids,

@@ -24,11 +24,11 @@ use crate::schedule::ScheduleConfig;
 use crate::tsmt::TsmtConfig;
 use crate::vqvae::VqConfig;
 
-/// `[data]`: where the AIST++-layout dataset is and which splits to use.
+/// `[data]`: where the dataset is (AIST++, FineDance or a folder of dances) and which splits to use.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DataConfig {
-    /// Dataset directory (AIST++ layout; `qean synth` makes one). Relative paths are relative to the
+    /// Dataset directory (its layout is detected; `qean synth` makes one). Relative paths are relative to the
     /// working directory; the resolved config stores it absolute.
     pub dir: Option<PathBuf>,
     /// Split the windows are drawn from.

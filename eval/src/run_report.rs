@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 
 use qean_aistpp::dataset::Dataset;
 use qean_aistpp::names::music_id_of;
-use qean_motion::motion::Motion;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
@@ -173,13 +172,14 @@ pub fn frozen_dances(generated: &[Sequence], seed_frames: usize) -> Vec<Sequence
         .collect()
 }
 
-/// One random-pairing set: each name's music ID (5th `_` field) replaced by the distinct music ID
-/// `shift` places later in sorted order (1 ≤ shift < number of IDs), so no dance keeps its own music.
-/// `None` with fewer than two music IDs or a shift outside that range.
+/// One random-pairing set: each dance's music ([`crate::protocol::music_key`]) replaced by the distinct
+/// music `shift` places later in sorted order (1 ≤ shift < number of musics), so no dance keeps its own
+/// music; an AIST++ name's music field (the 5th) is renamed with it, another name gets `@MUSIC`.
+/// `None` with fewer than two musics or a shift outside that range.
 pub fn repaired_dances(generated: &[Sequence], shift: usize) -> Option<Vec<Sequence>> {
     let mut ids: Vec<String> = generated
         .iter()
-        .filter_map(|s| music_id_of(&s.name))
+        .filter_map(crate::protocol::music_key)
         .collect();
     ids.sort();
     ids.dedup();
@@ -189,14 +189,24 @@ pub fn repaired_dances(generated: &[Sequence], shift: usize) -> Option<Vec<Seque
     let out = generated
         .iter()
         .map(|s| {
-            let mut fields: Vec<String> = s.name.split('_').map(str::to_string).collect();
-            if let Some(pos) = music_id_of(&s.name).and_then(|m| ids.iter().position(|x| *x == m)) {
-                fields[4] = ids[(pos + shift) % ids.len()].clone();
-            }
+            let own = crate::protocol::music_key(s);
+            let other = own
+                .as_ref()
+                .and_then(|m| ids.iter().position(|x| x == m))
+                .map(|pos| ids[(pos + shift) % ids.len()].clone());
+            let name = match (&other, music_id_of(&s.name)) {
+                (Some(o), Some(_)) => {
+                    let mut fields: Vec<String> = s.name.split('_').map(str::to_string).collect();
+                    fields[4] = o.clone();
+                    fields.join("_")
+                }
+                (Some(o), None) => format!("{}@{o}", s.name),
+                (None, _) => s.name.clone(),
+            };
             Sequence {
-                name: fields.join("_"),
+                name,
                 joints: s.joints.clone(),
-                music: None,
+                music: other.or(own),
                 music_offset: s.music_offset,
             }
         })
@@ -223,15 +233,20 @@ pub fn average_beat_align(reports: Vec<MetricsReport>) -> Option<MetricsReport> 
     Some(first)
 }
 
-/// The pairs of a protocol over the test + val sequences.
-pub fn pairings(names: &[String], protocol: Protocol) -> Vec<(String, String, String)> {
+/// The (motion, music, name) pairs of a protocol over the test + val sequences; `music_of` is the
+/// dataset's music of a sequence (`Dataset::music_id`).
+pub fn pairings(
+    names: &[String],
+    protocol: Protocol,
+    music_of: impl Fn(&str) -> Option<String>,
+) -> Vec<(String, String, String)> {
     match protocol {
         Protocol::Paired => names
             .iter()
-            .filter_map(|n| music_id_of(n).map(|m| (n.clone(), m, n.clone())))
+            .filter_map(|n| music_of(n).map(|m| (n.clone(), m, n.clone())))
             .collect(),
         Protocol::Unpaired => {
-            let musics: Vec<String> = names.iter().filter_map(|n| music_id_of(n)).collect();
+            let musics: Vec<String> = names.iter().filter_map(|n| music_of(n)).collect();
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(42);
             let mut seen = HashSet::new();
             let mut out = Vec::new();
@@ -267,7 +282,7 @@ pub fn dataset_energy_reference(
     let ds = Dataset::open(data)?;
     let mut sequences = Vec::new();
     for name in ds.all_sequences()? {
-        let m = Motion::read_pkl(&ds.motion_path(&name))?;
+        let m = ds.read_motion(&name)?;
         sequences.push(frames_of(m.joints(root)));
     }
     if sequences.is_empty() {

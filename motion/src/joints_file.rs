@@ -1,12 +1,38 @@
 //! Joint positions from any motion file we understand: an AIST++ pickle (forward kinematics), a `.npy` of joint
-//! positions (frames, 24, 3) or of model vectors (frames, 225 | 219), or a BVH of the SMPL skeleton.
+//! positions (frames, 24, 3), of model vectors (frames, 225 | 219) or of FineDance rows (frames, 315, read at
+//! 60 fps), or a BVH of the SMPL skeleton.
 
 use std::path::Path;
 
 use crate::fk::FkRoot;
+use crate::ik::IkMode;
 use crate::motion::{Layout, Motion};
 use crate::skeleton::NUM_JOINTS;
 use qean_io::error::{Error, Result};
+
+/// A motion from any motion file: rotations as they are (`crate::motion::read_motion`), joint positions (a
+/// (frames, 24, 3) `.npy` or a BVH) solved by inverse kinematics, with the mean distance (metres) between the
+/// given joints and those of the solved motion (bones at SMPL's lengths).
+pub fn read_any(path: &Path, ik: IkMode, root: FkRoot) -> Result<(Motion, Option<f64>)> {
+    let positions = match qean_io::fsutil::extension_lower(path).as_str() {
+        "bvh" => true,
+        "npy" => qean_io::npy::read(path)?.shape.len() == 3,
+        _ => false,
+    };
+    if !positions {
+        return Ok((crate::motion::read_motion(path)?, None));
+    }
+    let joints = load_joints(path, root)?;
+    let motion = crate::ik::motion_from_joints(&joints, ik, root);
+    let back = motion.joints(root);
+    let mean = joints
+        .iter()
+        .zip(&back)
+        .map(|(p, q)| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt())
+        .sum::<f64>()
+        / joints.len().max(1) as f64;
+    Ok((motion, Some(mean)))
+}
 
 /// Load joint positions (frames × 24, metres, +Y up) from `path`, choosing the reader by extension.
 pub fn load_joints(path: &Path, root: FkRoot) -> Result<Vec<[f64; 3]>> {
@@ -23,11 +49,14 @@ pub fn load_joints(path: &Path, root: FkRoot) -> Result<Vec<[f64; 3]>> {
                         .map_err(|m| Error::at(path, m))?
                         .joints(root)
                 }
+                [frames, crate::finedance::WIDTH] => crate::finedance::to_motion(&a.data, *frames)
+                    .map_err(|m| Error::at(path, m))?
+                    .joints(root),
                 other => {
                     return Err(Error::at(
                         path,
                         format!(
-                            "array of shape {other:?} is not a motion (expected (frames, 24, 3) joints or (frames, 225|219) vectors)"
+                            "array of shape {other:?} is not a motion (expected (frames, 24, 3) joints, (frames, 225|219) vectors or (frames, 315) FineDance rows)"
                         ),
                     ))
                 }

@@ -371,13 +371,18 @@ impl Motion {
     }
 }
 
-/// Read a motion from an AIST++ pickle or a `.npy` of model vectors (frames, 225 | 219).
+/// Read a motion from an AIST++ pickle, a `.npy` of model vectors (frames, 225 | 219) or a FineDance motion
+/// (frames, 315) at 30 fps, read as 60-fps SMPL (`crate::finedance`).
 pub fn read_motion(path: &Path) -> Result<Motion> {
     let ext = qean_io::fsutil::extension_lower(path);
     match ext.as_str() {
         "pkl" | "pickle" => Motion::read_pkl(path),
         "npy" => {
             let a = qean_io::npy::read(path)?;
+            if let [frames, crate::finedance::WIDTH] = a.shape[..] {
+                return crate::finedance::to_motion(&a.data, frames)
+                    .map_err(|m| Error::at(path, m));
+            }
             let layout = match a.shape.as_slice() {
                 [_, d] => Layout::from_dim(*d),
                 _ => None,
@@ -386,7 +391,7 @@ pub fn read_motion(path: &Path) -> Result<Motion> {
                 Error::at(
                     path,
                     format!(
-                        "array of shape {:?} is not a motion in a model layout (frames, 225|219)",
+                        "array of shape {:?} is not a motion (expected model vectors (frames, 225|219) or FineDance rows (frames, 315))",
                         a.shape
                     ),
                 )

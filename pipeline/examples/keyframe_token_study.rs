@@ -21,7 +21,6 @@ use qean_eval::run_report::frames_of;
 use qean_models::control::keyframe::{predict_window, refill, KeyToken};
 use qean_models::vqvae::VqVae;
 use qean_motion::fk::FkRoot;
-use qean_motion::motion::Motion;
 use qean_motion::pos72::pos72_to_joints;
 
 fn decoded_joints(vq: &FrozenVq, tokens: &[usize], origin: [f64; 3]) -> Vec<[f64; 3]> {
@@ -50,11 +49,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut sums = [0.0f64; 8];
     let mut count = 0usize;
     let tokens_of = |name: &str| -> Result<Vec<usize>, Box<dyn std::error::Error>> {
-        let m = Motion::read_pkl(&ds.motion_path(name))?;
+        let m = ds.read_motion(name)?;
         Ok(vq.tokens(&m, m.frames / g.rate * g.rate)?)
     };
     for (i, name) in names.iter().enumerate() {
-        let motion = Motion::read_pkl(&ds.motion_path(name))?;
+        let motion = ds.read_motion(name)?;
         let n = motion.frames / g.rate;
         let gt_tokens = vq.tokens(&motion, n * g.rate)?;
         let other_name = &names[(i + 1) % names.len()];

@@ -198,7 +198,7 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
     let names = protocol_sequences(&ds, splits)?;
     let config = &ck.config;
     let seed_frames = config.seed_frames();
-    let pairs = pairings(&names, req.protocol);
+    let pairs = pairings(&names, req.protocol, |n| ds.music_id(n));
     let (requests, starts) = sample_requests(&ds, &pairs, config, req.seed_start)?;
     let opts = sample_options(req, config)?;
     // A genre-control run dances each track in the track's own genre (SPEC §13.10).
@@ -227,8 +227,8 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
         .iter()
         .map(|s| s.name.as_str())
         .chain(names.iter().map(String::as_str))
-        .filter_map(qean_aistpp::names::music_id_of);
-    let wav = req.data.join("wav");
+        .filter_map(|n| ds.music_id(n));
+    let wav = ds.audio_dir();
     let beats = music_beats(&wav, keys, req.ba_music_beats)?;
     let lookup = |id: &str| qean_eval::dirs::beats_of(&beats, &wav, id);
     let configs = eval_configs(req, seed_frames);
@@ -445,7 +445,13 @@ fn eval_dir_name(step: u64, tag: Option<&str>) -> Result<String> {
 pub(crate) fn protocol_sequences(ds: &Dataset, splits: Splits) -> Result<Vec<String>> {
     let mut names = ds.split(Split::Test);
     if splits == Splits::TestValAgainstAll {
-        names.extend(ds.split(Split::Val));
+        // FineDance@Genre validates on its test list: each dance once.
+        let val: Vec<String> = ds
+            .split(Split::Val)
+            .into_iter()
+            .filter(|n| !names.contains(n))
+            .collect();
+        names.extend(val);
     }
     names.retain(|n| {
         ds.motion_path(n).is_file() || {
@@ -481,7 +487,7 @@ pub(crate) fn sample_requests(
     let mut motions = Vec::new();
     for (motion, _, _) in pairs {
         let path = ds.motion_path(motion);
-        let m = Motion::read_pkl(&path)?;
+        let m = ds.read_motion(motion)?;
         if m.frames < seed_frames {
             return Err(Error::Io(qean_io::Error::at(
                 &path,
@@ -705,7 +711,7 @@ fn write_generated(
         generated.push(Sequence {
             name: name.clone(),
             joints: frames_of(points),
-            music: None,
+            music: Some(music.clone()),
             music_offset: start,
         });
         pairings.push(Pairing {
@@ -739,7 +745,7 @@ pub(crate) fn reference_set(
     };
     let mut reference = Vec::new();
     for name in names {
-        let m = Motion::read_pkl(&ds.motion_path(&name))?;
+        let m = ds.read_motion(&name)?;
         reference.push(Sequence::new(name.clone(), frames_of(m.joints(root))));
     }
     Ok(reference)

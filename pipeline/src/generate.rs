@@ -87,7 +87,7 @@ pub fn seed_clip(source: &SeedSource, start: SeedStart, n: usize) -> Result<Moti
             if !p.is_file() {
                 return Err(Error::at(&p, format!("no motion for sequence {name}")));
             }
-            (Motion::read_pkl(&p)?, p)
+            (ds.read_motion(name)?, p)
         }
     };
     if motion.frames < n {

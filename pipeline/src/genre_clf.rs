@@ -6,7 +6,6 @@ use std::path::{Path, PathBuf};
 
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_aistpp::dataset::Dataset;
-use qean_aistpp::names::genre_of;
 use qean_aistpp::names::GENRES;
 use qean_checkpoint::checkpoint::Checkpoint;
 use qean_checkpoint::genre_clf::pos72_rows;
@@ -99,10 +98,10 @@ pub fn ground_truth_confusion(clf: &TrainedClf, ds: &Dataset) -> Result<(Vec<Vec
     let mut confusion = vec![vec![0usize; GENRES.len()]; GENRES.len()];
     let mut scored = 0;
     for name in &names {
-        let Some(truth) = genre_of(name) else {
+        let Some(truth) = ds.genre(name) else {
             continue;
         };
-        let motion = Motion::read_pkl(&ds.motion_path(name))?;
+        let motion = ds.read_motion(name)?;
         confusion[truth][clf.classify(&motion)] += 1;
         scored += 1;
     }

@@ -98,7 +98,7 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
     }
     let ds = Dataset::open(&req.data)?;
     let names = crate::evaluate::protocol_sequences(&ds, req.splits())?;
-    let pairs = pairings(&names, Protocol::Paired);
+    let pairs = pairings(&names, Protocol::Paired, |n| ds.music_id(n));
     let (requests, _) = crate::evaluate::sample_requests(&ds, &pairs, &ck.config, req.seed_start)?;
     let g = ck.config.gpt_table();
     let mut run = GptRun::load(&ck)?;

@@ -168,7 +168,7 @@ fn load(ds: &Dataset, splits: &[Split], include_jb: bool) -> Result<Loaded> {
     names.sort();
     let motions = names
         .iter()
-        .map(|n| Motion::read_pkl(&ds.motion_path(n)).map_err(Error::from))
+        .map(|n| ds.read_motion(n).map_err(Error::from))
         .collect::<Result<Vec<_>>>()?;
     Ok(Loaded { names, motions })
 }
@@ -196,7 +196,7 @@ fn selection_of(
     strategy: Strategy,
     n: usize,
 ) -> Result<qean_keyframes::select::Selection> {
-    let music_id = qean_aistpp::names::music_id_of(name);
+    let music_id = ds.music_id(name);
     let music = music_id.as_deref().and_then(|m| ds.audio_path(m));
     let stems_root = req.stems.clone().unwrap_or_else(|| ds.root.join("stems"));
     let k = KeyframesRequest {
@@ -255,7 +255,7 @@ fn test_features(
 ) -> Result<HashMap<String, Vec<f32>>> {
     qean_checkpoint::features::ensure_features(ds, names)?;
     let mut out = HashMap::new();
-    for id in Dataset::music_ids(names) {
+    for id in ds.music_ids(names) {
         let data = match drums {
             None => qean_aistpp::feature_cache::load(ds, &id)?.0,
             Some(source) => qean_checkpoint::inbetween::drums_features(
@@ -402,12 +402,10 @@ pub fn run(req: &InbetweenRequest) -> Result<(InbetweenReport, String)> {
         None
     };
     let reference = reference_set(req, &ds, &test)?;
-    let wav = req.data.join("wav");
+    let wav = ds.audio_dir();
     let beats = music_beats(
         &wav,
-        test.names
-            .iter()
-            .filter_map(|n| qean_aistpp::names::music_id_of(n)),
+        test.names.iter().filter_map(|n| ds.music_id(n)),
         MusicBeatSource::Bailando,
     )?;
     let lookup = |id: &str| qean_eval::dirs::beats_of(&beats, &wav, id);

@@ -118,7 +118,7 @@ pub fn keyframe_fidelity(req: &RunEvalRequest) -> Result<(FidelityReport, String
     };
     let ds = Dataset::open(&req.data)?;
     let names = crate::evaluate::protocol_sequences(&ds, req.splits())?;
-    let pairs = pairings(&names, Protocol::Paired);
+    let pairs = pairings(&names, Protocol::Paired, |n| ds.music_id(n));
     let (requests, starts) =
         crate::evaluate::sample_requests(&ds, &pairs, &ck.config, req.seed_start)?;
     let mut run = GptRun::load(&ck)?;
@@ -131,7 +131,7 @@ pub fn keyframe_fidelity(req: &RunEvalRequest) -> Result<(FidelityReport, String
     let warp = run.decoding.warp_frames;
     let (mut edited, mut tokens_only, mut plain) = (Vec::new(), Vec::new(), Vec::new());
     for ((r, (motion, _, name)), &start) in requests.iter().zip(&pairs).zip(&starts) {
-        let truth = Motion::read_pkl(&ds.motion_path(motion))?;
+        let truth = ds.read_motion(motion)?;
         let keys = ground_truth_keys(
             &truth,
             motion,

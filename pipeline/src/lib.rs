@@ -6,6 +6,7 @@
 //! It reads runs through qean-checkpoint and never depends on the trainer (`qean bench`, which times the
 //! trainer's update, is the qean-bench crate).
 
+pub mod check_data;
 pub mod curves;
 pub mod demo;
 pub mod edit;

@@ -77,7 +77,7 @@ pub fn text_quality(
     let prompts = prompts(&g, opts)?;
     let ds = Dataset::open(&req.data)?;
     let names = crate::evaluate::protocol_sequences(&ds, req.splits())?;
-    let pairs = pairings(&names, Protocol::Paired);
+    let pairs = pairings(&names, Protocol::Paired, |n| ds.music_id(n));
     let (requests, _) = crate::evaluate::sample_requests(&ds, &pairs, &ck.config, req.seed_start)?;
     let mut run = GptRun::load(&ck)?;
     run.decoding = req.sampling.decoding(run.decoding);

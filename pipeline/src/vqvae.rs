@@ -113,7 +113,7 @@ pub fn evaluate_vq(req: &RunEvalRequest) -> Result<(VqEvaluation, String)> {
     let mut counts = vec![0f32; codes];
     let (mut decoded, mut total, mut worst, mut frames) = (Vec::new(), 0.0, 0.0f64, 0usize);
     for name in &names {
-        let motion = Motion::read_pkl(&ds.motion_path(name))?;
+        let motion = ds.read_motion(name)?;
         let (tokens, joints) = vq
             .round_trip(&motion, req.root)
             .map_err(|e| Error::Invalid(format!("{name}: {e}")))?;
@@ -136,12 +136,10 @@ pub fn evaluate_vq(req: &RunEvalRequest) -> Result<(VqEvaluation, String)> {
         max_frames: usize::MAX,
         ..EvalConfig::default()
     };
-    let wav = req.data.join("wav");
+    let wav = ds.audio_dir();
     let beats = qean_eval::dirs::music_beats(
         &wav,
-        names
-            .iter()
-            .filter_map(|n| qean_aistpp::names::music_id_of(n)),
+        names.iter().filter_map(|n| ds.music_id(n)),
         req.ba_music_beats,
     )?;
     let lookup = |id: &str| qean_eval::dirs::beats_of(&beats, &wav, id);

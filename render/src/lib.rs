@@ -9,7 +9,7 @@ pub mod font;
 pub mod gltf;
 pub mod view;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use canvas::*;
 
@@ -337,6 +337,22 @@ pub fn beats_from_features(path: &Path) -> Result<Vec<usize>> {
         .filter(|(_, row)| row[34] > 0.5)
         .map(|(t, _)| t)
         .collect())
+}
+
+/// `x.png` → (x.png, x.gif); `x.gif` → (x.png, x.gif); `x` → (x.png, x.gif).
+pub fn preview_paths(out: &Path) -> (PathBuf, PathBuf) {
+    let ext = qean_io::fsutil::extension_lower(out);
+    let stem = match ext.as_str() {
+        "png" | "gif" => out.with_extension(""),
+        _ => out.to_path_buf(),
+    };
+    let add = |e: &str| {
+        let mut s = stem.clone().into_os_string();
+        s.push(".");
+        s.push(e);
+        PathBuf::from(s)
+    };
+    (add("png"), add("gif"))
 }
 
 /// Write `<stem>.png` (contact sheet) and `<stem>.gif` (animation) atomically; returns both paths.

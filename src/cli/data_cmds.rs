@@ -7,13 +7,13 @@ use qean::eval_cli::RootArg;
 use qean_motion::Motion;
 use qean_synth as synth;
 
-/// Make a synthetic dataset in the AIST++ layout: procedural music per music ID (WAV) and procedural dances
-/// phase-locked to it (motion pickles), with train/val/test split lists following the AIST++ naming rules.
+/// Make a synthetic dataset (in the AIST++ layout unless --layout says another): procedural music per
+/// music ID (WAV) and procedural dances phase-locked to it (motion pickles), with train/val/test split lists following the AIST++ naming rules.
 /// Each track's loudness, mix and drum sections vary (quiet intros, breakdowns) while its dances keep
 /// their energy, so a model learns to dance to the beat and the chords, not to a loudness level.
 /// Deterministic for a given seed.
 #[derive(Args, Debug)]
-#[command(about = "Make a synthetic AIST++-format dataset: procedural music and dances")]
+#[command(about = "Make a synthetic dataset (any layout): procedural music and dances")]
 pub struct SynthArgs {
     /// Output directory (must not exist, or be empty). Written atomically.
     #[arg(long)]
@@ -55,6 +55,11 @@ pub struct SynthArgs {
     /// GPT's T-Base (gpt.text_set = DIR) without a text encoder; it is not language.
     #[arg(long, value_name = "DIR")]
     pub text_set: Option<PathBuf>,
+    /// The layout to write: `aistpp`; `finedance` (FineDance's release: motion/NNN.npy, [T, 315] 6-D rotations
+    /// at 30 fps; music_wav/NNN.wav; label_json/NNN.json; FineDance@Genre's test and training IDs, so its
+    /// embedded split lists apply; AIST++'s val dances left out); `folder` (NAME.pkl beside NAME.wav, splits/).
+    #[arg(long, default_value = "aistpp", value_name = "aistpp|finedance|folder")]
+    pub layout: qean_aistpp::layout::DataLayout,
 }
 
 pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
@@ -75,7 +80,7 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
         genre_postures: a.genre_postures,
         genre_music: a.genre_music,
     };
-    let report = synth::generate(&a.out, &opts)?;
+    let report = synth::generate_as(&a.out, &opts, a.layout)?;
     if let Some(dir) = &a.text_set {
         let text = synth::text_set::TextSynthOptions {
             motions: a.sequences,
@@ -93,8 +98,9 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
     }
     let count = |s: &str| report.splits.get(s).map_or(0, |v| v.len());
     println!(
-        "wrote {}: {} train, {} val, {} test sequences, {} music tracks",
+        "wrote {} ({} layout): {} train, {} val, {} test sequences, {} music tracks",
         a.out.display(),
+        a.layout.name(),
         count("train"),
         count("val"),
         count("test"),
@@ -104,7 +110,7 @@ pub fn synth(a: SynthArgs) -> anyhow::Result<()> {
 }
 
 /// Summarise a motion pickle (.pkl), a .npy array, an audio file (duration, rate, channels, tempo, beats), a
-/// model config (.toml: architecture and exact parameter count) or an AIST++-layout dataset directory.
+/// model config (.toml: architecture and exact parameter count) or a dataset directory (any layout).
 #[derive(Args, Debug)]
 #[command(about = "Summarise a motion, array, audio file, model config, run or dataset")]
 pub struct InspectArgs {
@@ -115,6 +121,39 @@ pub struct InspectArgs {
 pub fn inspect(a: InspectArgs) -> anyhow::Result<()> {
     let summary = qean_aistpp::inspect::inspect(&a.path)?;
     print!("{summary}");
+    Ok(())
+}
+
+/// Check a dataset before training on it: counts, lengths, frame rates, genres, foot sliding, and every
+/// defect, one line each — a motion that cannot be read (a NaN frame, a truncated file, a wrong width), a
+/// listed sequence without its motion, music missing, unreadable or shorter than its dance, joints out of
+/// range, a clip that repeats another. Exits non-zero when it finds one.
+#[derive(Args, Debug)]
+#[command(about = "Check a dataset (AIST++, FineDance or a folder of dances) for defects")]
+pub struct CheckDataArgs {
+    /// The dataset directory; its layout is detected (motions/: AIST++; motion/: FineDance; else a folder).
+    pub dir: PathBuf,
+    /// Read it as this layout instead.
+    #[arg(long, value_name = "aistpp|finedance|folder")]
+    pub layout: Option<qean_aistpp::layout::DataLayout>,
+}
+
+pub fn check_data(a: CheckDataArgs) -> anyhow::Result<()> {
+    let ds = qean_aistpp::dataset::Dataset::open_with(&a.dir, a.layout)?;
+    let pb = qean_checkpoint::progress::bar(0, "", "");
+    let check = qean_pipeline::check_data::check_data(&ds, |done, total| {
+        pb.set_length(total as u64);
+        pb.set_position(done as u64);
+    })?;
+    pb.finish_and_clear();
+    print!("{check}");
+    if !check.defects.is_empty() {
+        anyhow::bail!(
+            "{}: {} defect(s), listed above",
+            a.dir.display(),
+            check.defects.len()
+        );
+    }
     Ok(())
 }
 
@@ -164,22 +203,6 @@ pub struct RenderArgs {
     pub root: RootArg,
 }
 
-/// `x.png` → (x.png, x.gif); `x.gif` → (x.png, x.gif); `x` → (x.png, x.gif).
-fn preview_paths(out: &std::path::Path) -> (PathBuf, PathBuf) {
-    let ext = qean_io::fsutil::extension_lower(out);
-    let stem = match ext.as_str() {
-        "png" | "gif" => out.with_extension(""),
-        _ => out.to_path_buf(),
-    };
-    let add = |e: &str| {
-        let mut s = stem.clone().into_os_string();
-        s.push(".");
-        s.push(e);
-        PathBuf::from(s)
-    };
-    (add("png"), add("gif"))
-}
-
 pub fn render(a: RenderArgs) -> anyhow::Result<()> {
     let joints = qean_motion::joints_file::load_joints(&a.motion, a.root.fk())?;
     let beats = match &a.features {
@@ -198,7 +221,7 @@ pub fn render(a: RenderArgs) -> anyhow::Result<()> {
         beats: beats.as_deref(),
         seed_frames: a.seed_frames,
     };
-    let (png, gif) = preview_paths(&a.out);
+    let (png, gif) = qean_render::preview_paths(&a.out);
     qean_render::write_preview(&preview, &png, &gif)?;
     println!("wrote {} and {}", png.display(), gif.display());
     Ok(())
@@ -245,36 +268,16 @@ impl IkArg {
     }
 }
 
-/// Whether a motion file holds joint positions rather than rotations: a (frames, 24, 3) .npy or a BVH.
-fn holds_positions(path: &std::path::Path) -> anyhow::Result<bool> {
-    Ok(match qean_io::fsutil::extension_lower(path).as_str() {
-        "bvh" => true,
-        "npy" => qean_io::npy::read(path)?.shape.len() == 3,
-        _ => false,
-    })
-}
-
 pub fn convert(a: ConvertArgs) -> anyhow::Result<()> {
     let root = a.root.fk();
-    let motion = if holds_positions(&a.motion)? {
-        let joints = qean_motion::joints_file::load_joints(&a.motion, root)?;
-        let motion = qean_motion::ik::motion_from_joints(&joints, a.ik.mode(), root);
-        let back = motion.joints(root);
-        let mean = joints
-            .iter()
-            .zip(&back)
-            .map(|(p, q)| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt())
-            .sum::<f64>()
-            / joints.len() as f64;
+    let (motion, ik_error) = qean_motion::joints_file::read_any(&a.motion, a.ik.mode(), root)?;
+    if let Some(mean) = ik_error {
         println!(
             "inverse kinematics ({:?}): mean joint distance after FK {:.2} mm (bones at SMPL lengths)",
             a.ik,
             mean * 1000.0
         );
-        motion
-    } else {
-        qean_motion::motion::read_motion(&a.motion)?
-    };
+    }
     let ext = qean_io::fsutil::extension_lower(&a.out);
     match ext.as_str() {
         "bvh" => qean_motion::bvh::write(&a.out, &motion, root)?,

@@ -11,7 +11,7 @@ use qean_audio::{self as audio, FeatureOptions, Resampler};
 
 /// Compute the 35-D FACT music features (librosa 0.8.1 semantics: onset envelope, 20 MFCC, 12 chroma_cens,
 /// onset peaks, beats; 60 frames per second) of audio files, writing OUT/<stem>.npy (frames × 35 float32);
-/// or, with --dataset, cache the features of every music ID of an AIST++-layout directory in DIR/features/
+/// or, with --dataset, cache the features of every music ID of a dataset directory in DIR/features/
 /// (skipping those already cached and up to date).
 #[derive(Args, Debug)]
 #[command(about = "Compute the 35-D FACT music features of audio files or a dataset")]
@@ -21,7 +21,7 @@ pub struct FeaturesArgs {
     /// Output directory for the .npy files (must exist).
     #[arg(long, required_unless_present = "dataset")]
     pub out: Option<PathBuf>,
-    /// An AIST++-layout dataset directory whose wav/ music to cache.
+    /// A dataset directory (any layout) whose music to cache.
     #[arg(long, conflicts_with_all = ["audio", "out"])]
     pub dataset: Option<PathBuf>,
     /// Beat-tracker tempo prior in BPM. Default: from the AIST++ music ID in the name, else 120.
@@ -79,7 +79,7 @@ pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {
         let ds = Dataset::open(dir)?;
         let mut names: Vec<String> = Split::ALL.iter().flat_map(|s| ds.split(*s)).collect();
         names.extend(ds.all_sequences()?);
-        let ids = Dataset::music_ids(&names);
+        let ids = ds.music_ids(&names);
         let pb = bar(ids.len());
         let describe = |id: &str| -> String { options(id, &a).cache_key() };
         let computed = feature_cache::ensure(
@@ -154,23 +154,9 @@ pub fn features(a: FeaturesArgs) -> anyhow::Result<()> {
 
 /// `qean inspect` on an audio file: duration, rate, channels, tempo and beat count.
 pub fn inspect_audio(path: &std::path::Path) -> anyhow::Result<()> {
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let opts = FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(&stem));
-    let audio = audio::load_audio(path, &audio::LoadOptions::default())?;
-    let f = audio::music_features(&audio.samples, &opts)?;
-    println!("audio: {}", path.display());
-    println!("duration: {:.3} s", audio.duration);
-    println!("sample rate: {} Hz", audio.original_rate);
-    println!("channels: {}", audio.channels);
-    println!("feature frames: {} (60 fps)", f.frames);
-    println!(
-        "tempo: {:.2} BPM (start_bpm {})",
-        f.tempo_bpm, opts.start_bpm
-    );
-    println!("beats: {}", f.beats.len());
-    println!("onset peaks: {}", f.onsets.len());
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+    let opts =
+        FeatureOptions::with_start_bpm(qean_aistpp::names::start_bpm(&stem.unwrap_or_default()));
+    print!("{}", audio::features::describe_file(path, &opts)?);
     Ok(())
 }

@@ -33,6 +33,7 @@ pub enum Command {
     Synth(data_cmds::SynthArgs),
     Features(features_cmd::FeaturesArgs),
     Inspect(data_cmds::InspectArgs),
+    CheckData(data_cmds::CheckDataArgs),
     Joints(data_cmds::JointsArgs),
     Render(data_cmds::RenderArgs),
     Convert(data_cmds::ConvertArgs),
@@ -96,6 +97,7 @@ fn run_data(command: Command) -> anyhow::Result<()> {
             }
         }
         Command::Bench(a) => bench_cmd::bench(a),
+        Command::CheckData(a) => data_cmds::check_data(a),
         Command::Joints(a) => data_cmds::joints(a),
         Command::Render(a) => data_cmds::render(a),
         Command::Convert(a) => data_cmds::convert(a),

@@ -39,7 +39,8 @@ pub struct TrainArgs {
     /// Continue a run: a run directory (its newest checkpoint) or R/checkpoints/step-N.
     #[arg(long)]
     pub resume: Option<PathBuf>,
-    /// Dataset directory (AIST++ layout); the same as --set data.dir=DIR.
+    /// Dataset directory (AIST++, FineDance or a folder of dances: the layout is detected); the same as
+    /// --set data.dir=DIR.
     #[arg(long)]
     pub data: Option<PathBuf>,
     /// Backend: flex (CPU, default), ndarray (CPU, to cross-check flex), wgpu (GPU); the last two

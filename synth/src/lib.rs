@@ -4,6 +4,7 @@
 //! music IDs). Deterministic for a given seed.
 
 pub mod dance;
+pub mod layouts;
 pub mod music;
 pub mod text_set;
 
@@ -16,6 +17,7 @@ use rand_chacha::ChaCha8Rng;
 use dance::{BeatGrid, DanceStyle};
 use music::{Groove, MusicSpec};
 use qean_aistpp::dataset::Split;
+use qean_aistpp::layout::DataLayout;
 use qean_aistpp::names::{tempo_prior, GENRES};
 use qean_io::error::{Error, Result};
 use qean_io::fsutil::atomic_write;
@@ -209,6 +211,29 @@ pub fn plan_names(n: usize) -> Result<BTreeMap<Split, Vec<String>>> {
 /// Generate the dataset into `out`, which must not exist or be empty. Built in a temporary sibling and renamed
 /// into place, so an interrupted run leaves nothing behind.
 pub fn generate(out: &Path, opts: &SynthOptions) -> Result<SynthReport> {
+    let plan = prepare(out, opts)?;
+    qean_io::fsutil::atomic_dir(out, |tmp| write_dataset(tmp, opts, &plan))
+}
+
+/// [`generate`] in another dataset layout (`layouts::convert` of the AIST++-layout set), as atomically.
+pub fn generate_as(out: &Path, opts: &SynthOptions, layout: DataLayout) -> Result<SynthReport> {
+    if layout == DataLayout::Aistpp {
+        return generate(out, opts);
+    }
+    let plan = prepare(out, opts)?;
+    qean_io::fsutil::atomic_dir(out, |tmp| {
+        let aist = tmp.join("aistpp-source");
+        std::fs::create_dir(&aist).map_err(|e| Error::io(&aist, e))?;
+        let report = layouts::convert(&aist, tmp, layout, &write_dataset(&aist, opts, &plan)?)?;
+        std::fs::remove_dir_all(&aist).map_err(|e| Error::io(&aist, e))?;
+        let json = serde_json::to_vec_pretty(&report).map_err(|e| Error::msg(e.to_string()))?;
+        atomic_write(&tmp.join("synth.json"), &json)?;
+        Ok(report)
+    })
+}
+
+/// Checks the options and that `out` is absent or empty (removing it then); the names of each split.
+fn prepare(out: &Path, opts: &SynthOptions) -> Result<BTreeMap<Split, Vec<String>>> {
     if !(opts.seconds >= 1.0 && opts.seconds <= 600.0) {
         return Err(Error::msg(format!(
             "--seconds must be between 1 and 600, got {}",
@@ -226,8 +251,7 @@ pub fn generate(out: &Path, opts: &SynthOptions) -> Result<SynthReport> {
         }
         std::fs::remove_dir(out).map_err(|e| Error::io(out, e))?;
     }
-    let plan = plan_names(opts.sequences)?;
-    qean_io::fsutil::atomic_dir(out, |tmp| write_dataset(tmp, opts, &plan))
+    plan_names(opts.sequences)
 }
 
 /// Music: one track per music ID under `dir/wav/`, a little longer than the longest dance (a real
@@ -536,7 +560,7 @@ mod tests {
             let pa = std::fs::read(ds.motion_path(&name)).unwrap();
             let pb = std::fs::read(b.join("motions").join(format!("{name}.pkl"))).unwrap();
             assert_eq!(pa, pb, "{name} differs between runs");
-            let m = qean_motion::motion::Motion::read_pkl(&ds.motion_path(&name)).unwrap();
+            let m = ds.read_motion(&name).unwrap();
             assert!(m.frames >= 255 && m.frames <= 300);
             assert!(m.scaling > 80.0);
         }

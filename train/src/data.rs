@@ -30,7 +30,7 @@ pub fn audio_stats(ds: &Dataset, split: Split) -> Result<(Vec<f64>, Vec<f64>)> {
     let names = ds.split(split);
     ensure_features(ds, &names)?;
     let mut stats = ColumnStats::new(AUDIO_DIM);
-    for id in Dataset::music_ids(&names) {
+    for id in ds.music_ids(&names) {
         let (data, _) = feature_cache::load(ds, &id)?;
         data.chunks_exact(AUDIO_DIM).for_each(|row| stats.add(row));
     }

@@ -224,11 +224,11 @@ impl Family for GenreFamily {
         if let Some(s) = set
             .sequences
             .iter()
-            .find(|s| qean_aistpp::names::genre_of(&s.name).is_none())
+            .find(|s| dataset.genre(&s.name).is_none())
         {
             return Err(Error::at(
                 dataset.motion_path(&s.name),
-                "the sequence name carries no AIST++ genre code (gBR, gPO, …): genre control needs one",
+                "genre control needs AIST++'s ten genres (a name such as gBR_sBM_cAll_d04_mBR0_ch02); this sequence has none",
             ));
         }
         Ok(set)

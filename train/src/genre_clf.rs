@@ -10,7 +10,7 @@ use qean_config::run::RunConfig;
 use qean_io::error::{Error, Result};
 use qean_models::control::genre_clf::GenreClassifier;
 use qean_models::tsmt::loss::masked_cross_entropy;
-use qean_motion::motion::{Layout, Motion};
+use qean_motion::motion::Layout;
 use qean_motion::pos72::POS72;
 use rand::{Rng, SeedableRng};
 
@@ -123,7 +123,7 @@ impl Family for GenreClfFamily {
             POS72,
             0,
             |seq| {
-                let mut rows = pos72_rows(&Motion::read_pkl(&dataset.motion_path(&seq.name))?);
+                let mut rows = pos72_rows(&dataset.read_motion(&seq.name)?);
                 rows.truncate(seq.motion_frames * POS72);
                 Ok(rows)
             },

@@ -14,7 +14,7 @@ use qean_config::run::RunConfig;
 use qean_io::error::{Error, Result};
 use qean_models::control::gpt::{music_token_dim, Gpt};
 use qean_models::tsmt::loss::masked_cross_entropy;
-use qean_motion::motion::{Layout, Motion};
+use qean_motion::motion::Layout;
 use rand::{Rng, SeedableRng};
 
 use crate::family::{Family, StepContext};
@@ -151,7 +151,7 @@ impl GptFamily {
                     }
                     qean_aistpp::text_set::read_embedding(&path, g.text_dim, g.text_l2_normalise)?
                 }
-                None => match qean_aistpp::names::genre_of(&name) {
+                None => match dataset.genre(&name) {
                     Some(genre) => genre_embedding(genre, g.text_dim),
                     None => continue,
                 },
@@ -160,7 +160,7 @@ impl GptFamily {
             if !path.is_file() {
                 continue;
             }
-            let motion = Motion::read_pkl(&path)?;
+            let motion = dataset.read_motion(&name)?;
             let n = (motion.frames / g.rate).min(g.window + 1);
             if n == 0 {
                 continue;
@@ -484,7 +484,7 @@ impl Family for GptFamily {
             1
         };
         for seq in &frames.sequences {
-            let motion = Motion::read_pkl(&dataset.motion_path(&seq.name))?;
+            let motion = dataset.read_motion(&seq.name)?;
             let features = config.recipe.model_audio(seq.audio.to_vec(), FEATURES);
             for offset in 0..offsets {
                 let frames_left = seq

@@ -30,7 +30,8 @@ use qean_checkpoint::inbetween::{base_225, drums_features};
 fn with_drums(mut set: SequenceSet, dataset: &Dataset, c: &InbetweenConfig) -> Result<SequenceSet> {
     let mut done: std::collections::HashMap<String, Arc<Vec<f32>>> = Default::default();
     for seq in &mut set.sequences {
-        let id = qean_aistpp::names::music_id_of(&seq.name)
+        let id = dataset
+            .music_id(&seq.name)
             .ok_or_else(|| Error::msg(format!("{}: no AIST++ music ID in the name", seq.name)))?;
         if !done.contains_key(&id) {
             let music = dataset.audio_path(&id);
@@ -95,6 +96,28 @@ fn padded_rows(data: &[f32], w: usize, a: usize, len: usize, total: usize) -> Ve
     out
 }
 
+/// The tempo (BPM) of a music without AIST++'s tempo prior (FineDance, a user's folder): the median interval
+/// between the beats of its 35-D features (column 34, 60 frames a second; raw or standardised, a beat is
+/// above the column's mid-range).
+fn beat_tempo(audio: &[f32], dim: usize) -> Option<f64> {
+    let column: Vec<f32> = audio
+        .chunks_exact(dim)
+        .map(|r| r[qean_audio::features::COL_BEAT])
+        .collect();
+    let (lo, hi) = column
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let beats: Vec<usize> = (0..column.len())
+        .filter(|&t| column[t] > (lo + hi) / 2.0)
+        .collect();
+    let mut gaps: Vec<usize> = beats.windows(2).map(|w| w[1] - w[0]).collect();
+    gaps.sort_unstable();
+    let median = *gaps.get(gaps.len() / 2)?;
+    Some(60.0 * qean_motion::motion::FPS / median as f64)
+}
+
 /// Every sequence of a whole-sequence set cut into its measures (each padded to `max_len`); music rows become
 /// the 22 columns of §12.4c. A measure longer than `max_len` is an error naming the sequence.
 pub fn measure_windows(whole: SequenceSet, c: &InbetweenConfig) -> Result<SequenceSet> {
@@ -106,9 +129,10 @@ pub fn measure_windows(whole: SequenceSet, c: &InbetweenConfig) -> Result<Sequen
         }
         let bpm = qean_aistpp::names::music_id_of(&seq.name)
             .and_then(|m| qean_aistpp::names::tempo_prior(&m))
+            .or_else(|| beat_tempo(&seq.audio, ad))
             .ok_or_else(|| {
                 Error::msg(format!(
-                    "{}: no AIST++ music ID in the name, so no measure grid",
+                    "{}: no AIST++ music ID in the name and fewer than two beats in its music, so no measure grid",
                     seq.name
                 ))
             })?;
@@ -274,7 +298,7 @@ fn music_stats(
     let names = dataset.split(split);
     qean_checkpoint::features::ensure_features(dataset, &names)?;
     let mut stats = crate::data::ColumnStats::new(MUSIC_DIM);
-    for id in Dataset::music_ids(&names) {
+    for id in dataset.music_ids(&names) {
         let data = if c.variant.drums() {
             let stems = dataset.root.join("stems").join(&id);
             let bpm = qean_aistpp::names::start_bpm(&id);

@@ -16,7 +16,6 @@ use qean_config::keyframe::{KeyframeConfig, KfTrainMask};
 use qean_config::run::RunConfig;
 use qean_io::error::{Error, Result};
 use qean_models::control::keyframe::{mask_logits, KeyframeGpt, KeyframeModule};
-use qean_motion::motion::Motion;
 use qean_motion::FkRoot;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -142,7 +141,7 @@ impl KeyframeFamily {
         let offsets = if g.token_shift_aug { g.rate } else { 1 };
         let mut out = HashMap::new();
         for name in dataset.split(train) {
-            let motion = Motion::read_pkl(&dataset.motion_path(&name))?;
+            let motion = dataset.read_motion(&name)?;
             let joints = motion.joints(FkRoot::Smpl);
             for offset in 0..offsets {
                 let n = motion.frames.saturating_sub(offset) / g.rate;

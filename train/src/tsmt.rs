@@ -51,7 +51,7 @@ pub fn fit_bins(ds: &Dataset, split: Split, t: &TsmtConfig) -> Result<Bins> {
     let mut ranges = Vec::with_capacity(names.len());
     for name in &names {
         let path = ds.motion_path(name);
-        let coords = motion_coords(&Motion::read_pkl(&path)?, t.root_mode);
+        let coords = motion_coords(&ds.read_motion(name)?, t.root_mode);
         // Keep each sequence's per-coordinate min and max as a two-frame summary.
         let fit = Bins::fit(&coords, t.coords(), 1, qean_config::tsmt::BinsMode::PerDim)
             .map_err(|m| Error::at(&path, m))?;
@@ -296,7 +296,7 @@ impl Family for TsmtFamily {
             t.coords(),
             AUDIO_COLS,
             |seq| {
-                let motion = Motion::read_pkl(&dataset.motion_path(&seq.name))?;
+                let motion = dataset.read_motion(&seq.name)?;
                 let tokens = bins.encode(&motion_coords(&motion, t.root_mode));
                 Ok(tokens.into_iter().map(f32::from).collect())
             },

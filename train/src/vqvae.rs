@@ -14,7 +14,7 @@ use qean_config::vqvae::{Quantizer, ResetSource, TextBalance, VqConfig, VqLoss, 
 use qean_io::error::{Error, Result};
 use qean_models::vqvae::quantize::{assign, ChaChaEma, EmaCodebook, EmaOptions};
 use qean_models::vqvae::VqVae;
-use qean_motion::motion::{Layout, Motion};
+use qean_motion::motion::Layout;
 use qean_motion::pos72::{joints_to_pos72_f32, POS72};
 use rand::{Rng, SeedableRng};
 
@@ -58,7 +58,7 @@ fn pos72_stats(
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     let mut stats = crate::data::ColumnStats::new(POS72);
     for name in ds.split(split) {
-        let rows = motion_pos72(&Motion::read_pkl(&ds.motion_path(&name))?, c);
+        let rows = motion_pos72(&ds.read_motion(&name)?, c);
         rows.chunks_exact(POS72).for_each(|r| stats.add(r));
     }
     for (_, rows) in text {
@@ -251,7 +251,7 @@ impl Family for VqFamily {
             POS72,
             0,
             |seq| {
-                let motion = Motion::read_pkl(&dataset.motion_path(&seq.name))?;
+                let motion = dataset.read_motion(&seq.name)?;
                 let mut rows = motion_pos72(&motion, c);
                 rows.truncate(seq.motion_frames * POS72);
                 Ok(rows)

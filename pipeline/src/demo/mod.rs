@@ -667,7 +667,7 @@ fn compare_page(
     let root = qean_motion::FkRoot::Smpl;
     let ds = qean_aistpp::dataset::Dataset::open(data)?;
     let first = first_test(&ds)?;
-    let gt = qean_motion::motion::Motion::read_pkl(&ds.motion_path(&first))?;
+    let gt = ds.read_motion(&first)?;
     let mut dances = vec![PageDance {
         label: format!("ground truth ({first}, to its own music)"),
         joints: gt.joints(root),
