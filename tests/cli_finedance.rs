@@ -141,6 +141,7 @@ fn finedance_set_trains_samples_and_scores() {
             .arg(&ds),
     );
     assert!(ok && text.contains("protocol preset lodge"), "{text}");
+    assert!(text.contains("| FineDance |") && !text.contains("| AIST++ |"), "{text}");
     assert!(run("gpt").join("eval/step-2/report.md").is_file());
     assert_clean_failure(
         qean()
@@ -188,4 +189,64 @@ fn bad_finedance_sets_fail_in_one_line() {
     .unwrap();
     assert_clean_failure(&mut train(), "315");
     assert!(!tmp.path().join("run").exists());
+}
+
+/// A folder of a user's own dances (each NAME.pkl beside NAME.wav) trains and is scored like the others.
+#[test]
+fn a_folder_of_dances_trains_and_scores() {
+    let tmp = tempfile::tempdir().unwrap();
+    let ds = tmp.path().join("mine");
+    let st = qean()
+        .args([
+            "synth",
+            "--layout",
+            "folder",
+            "--sample-rate",
+            "8000",
+            "--sequences",
+            "12",
+            "--seconds",
+            "5",
+        ])
+        .arg("--out")
+        .arg(&ds)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let (ok, text) = stdout_of(qean().arg("check-data").arg(&ds));
+    assert!(
+        ok && text.contains("folder layout") && text.contains("defects: 0"),
+        "{text}"
+    );
+    let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/control");
+    for (config, name, extra) in [
+        ("vqvae_tiny.toml", "vq", String::from("train.steps=2")),
+        (
+            "gpt_tiny.toml",
+            "gpt",
+            format!("gpt.vqvae_run={}", tmp.path().join("vq").display()),
+        ),
+    ] {
+        let (ok, text) = stdout_of(
+            qean()
+                .arg("train")
+                .arg("--config")
+                .arg(configs.join(config))
+                .arg("--data")
+                .arg(&ds)
+                .arg("--run-dir")
+                .arg(tmp.path().join(name))
+                .args(["--set", "train.steps=2", "--set", &extra]),
+        );
+        assert!(ok, "{config}: {text}");
+    }
+    let (ok, text) = stdout_of(
+        qean()
+            .arg("eval")
+            .arg("--run")
+            .arg(tmp.path().join("gpt"))
+            .arg("--data")
+            .arg(&ds),
+    );
+    assert!(ok && text.contains("FID_k"), "{text}");
 }

@@ -153,6 +153,15 @@ impl DataLayout {
         }
     }
 
+    /// The name of its data in tables: the ground-truth row of a report.
+    pub fn title(self) -> &'static str {
+        match self {
+            DataLayout::Aistpp => "AIST++",
+            DataLayout::FineDance => "FineDance",
+            DataLayout::Folder => "ground truth",
+        }
+    }
+
     /// The layout of `dir` by what it holds: `motions/` is AIST++, `motion/` FineDance, motion files at the
     /// top a folder dataset. An error names the directory and what each layout needs.
     pub fn detect(dir: &Path) -> Result<DataLayout> {

@@ -137,6 +137,9 @@ pub struct EvalConfig {
     /// Checkpoint mode's generated and reference sequences.
     #[serde(default)]
     pub splits: Splits,
+    /// The reference set's name in the tables' ground-truth row (the dataset's: AIST++, FineDance, …).
+    #[serde(default = "aistpp_name")]
+    pub reference_name: String,
 }
 
 fn one() -> usize {
@@ -193,8 +196,13 @@ impl Default for EvalConfig {
             joints: JointSet::Smpl24,
             kinetic_fps: sixty(),
             splits: Splits::TestValAgainstAll,
+            reference_name: aistpp_name(),
         }
     }
+}
+
+fn aistpp_name() -> String {
+    "AIST++".into()
 }
 
 impl EvalConfig {

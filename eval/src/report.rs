@@ -195,7 +195,8 @@ fn opt(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "-".to_string(), |x| format!("{x:.digits$}"))
 }
 
-/// A markdown table in the layout of QEAN Table 1: an "AIST++" GT row (from the first report) and
+/// A markdown table in the layout of QEAN Table 1: a ground-truth row named after the reference set ("AIST++"
+/// in the paper; from the first report) and
 /// one row per report, then one line per report naming its variants.
 pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
     let mut out = String::new();
@@ -208,7 +209,8 @@ pub fn render_markdown(rows: &[(&str, &MetricsReport)]) -> String {
     out.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
     if let Some((_, gt)) = rows.first() {
         out.push_str(&format!(
-            "| AIST++ | - | - | {:.3} | {:.3} | {} | 1 | 1 | - | {} | - |\n",
+            "| {} | - | - | {:.3} | {:.3} | {} | 1 | 1 | - | {} | - |\n",
+            gt.config.reference_name,
             gt.gt_div_k,
             gt.gt_div_g,
             opt(gt.gt_beat_align, 4),
@@ -293,7 +295,11 @@ fn protocol_block(p: ProtocolPreset, rows: &[(&str, &MetricsReport)]) -> String 
     );
     if let Some((_, gt)) = rows.first() {
         let cells: Vec<String> = cols.iter().map(|c| column(gt, c, true)).collect();
-        out.push_str(&format!("| AIST++ | {} |\n", cells.join(" | ")));
+        out.push_str(&format!(
+            "| {} | {} |\n",
+            gt.config.reference_name,
+            cells.join(" | ")
+        ));
     }
     for (name, r) in rows {
         let cells: Vec<String> = cols.iter().map(|c| column(r, c, false)).collect();
@@ -425,7 +431,8 @@ fn li_block(rows: &[(&str, &MetricsReport)]) -> String {
     if let Some((_, gt)) = rows.first() {
         let l = &gt.li;
         out.push_str(&format!(
-            "| AIST++ | - | - | - | {:.3} | {} | - | {:.3} | {:.3} |\n",
+            "| {} | - | - | - | {:.3} | {} | - | {:.3} | {:.3} |\n",
+            gt.config.reference_name,
             l.gt_a_seq_d,
             opt(l.gt_i_seq_d, 3),
             l.gt_authenticity,

@@ -231,7 +231,7 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
     let wav = ds.audio_dir();
     let beats = music_beats(&wav, keys, req.ba_music_beats)?;
     let lookup = |id: &str| qean_eval::dirs::beats_of(&beats, &wav, id);
-    let configs = eval_configs(req, seed_frames);
+    let configs = eval_configs(req, seed_frames, &ds);
     let mut reports = configs
         .iter()
         .map(|cfg| evaluate(&generated, &reference, Some(&lookup), cfg))
@@ -388,12 +388,13 @@ impl SweepScoring {
 }
 
 /// The request's metric configurations, scoring the frames after the seed, up to `req.max_frames`.
-fn eval_configs(req: &RunEvalRequest, seed_frames: usize) -> Vec<EvalConfig> {
+fn eval_configs(req: &RunEvalRequest, seed_frames: usize, ds: &Dataset) -> Vec<EvalConfig> {
     req.configs
         .iter()
         .map(|c| EvalConfig {
             seed_frames,
             music_offset: 0,
+            reference_name: ds.layout.title().to_string(),
             // A protocol preset fixes its own clip length; the request's is how long the dances are.
             max_frames: match c.preset {
                 Some(_) => c.max_frames,
@@ -746,7 +747,10 @@ pub(crate) fn reference_set(
     let mut reference = Vec::new();
     for name in names {
         let m = ds.read_motion(&name)?;
-        reference.push(Sequence::new(name.clone(), frames_of(m.joints(root))));
+        reference.push(Sequence {
+            music: ds.music_id(&name),
+            ..Sequence::new(name.clone(), frames_of(m.joints(root)))
+        });
     }
     Ok(reference)
 }

@@ -126,7 +126,10 @@ pub fn evaluate_vq(req: &RunEvalRequest) -> Result<(VqEvaluation, String)> {
         total += e * n as f64;
         frames += n;
         worst = worst.max(e);
-        decoded.push(Sequence::new(name.clone(), frames_of(joints)));
+        decoded.push(Sequence {
+            music: ds.music_id(name),
+            ..Sequence::new(name.clone(), frames_of(joints))
+        });
     }
     let tokens = counts.iter().sum::<f32>() as usize;
     let reference = crate::evaluate::reference_set(&ds, req.root, Default::default())?;
