@@ -6,14 +6,32 @@ use std::path::{Path, PathBuf};
 mod common;
 use common::*;
 
-fn synth(dir: &Path, sequences: &str, seconds: &str) {
+fn synth(dir: &Path, layout: &str, sequences: &str, seconds: &str) {
     let st = qean()
-        .args(["synth", "--layout", "finedance", "--sample-rate", "8000"])
+        .args(["synth", "--layout", layout, "--sample-rate", "8000"])
         .args(["--sequences", sequences, "--seconds", seconds, "--out"])
         .arg(dir)
         .status()
         .unwrap();
     assert!(st.success());
+}
+
+/// `qean train` of `config` (under configs/) on `ds` into `run`, two steps and `sets`; must succeed.
+fn train(ds: &Path, config: &str, run: &Path, sets: &[String]) {
+    let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+    let (ok, text) = stdout_of(
+        qean()
+            .arg("train")
+            .arg("--config")
+            .arg(configs.join(config))
+            .arg("--data")
+            .arg(ds)
+            .arg("--run-dir")
+            .arg(run)
+            .args(["--set", "train.steps=2"])
+            .args(sets.iter().flat_map(|s| ["--set".to_string(), s.clone()])),
+    );
+    assert!(ok, "{config}: {text}");
 }
 
 fn stdout_of(cmd: &mut std::process::Command) -> (bool, String) {
@@ -32,7 +50,7 @@ fn stdout_of(cmd: &mut std::process::Command) -> (bool, String) {
 fn check_data_finds_each_planted_defect() {
     let tmp = tempfile::tempdir().unwrap();
     let ds = tmp.path().join("fd");
-    synth(&ds, "12", "3");
+    synth(&ds, "finedance", "12", "3");
     let (ok, text) = stdout_of(qean().arg("check-data").arg(&ds));
     assert!(
         ok && text.contains("finedance layout") && text.contains("defects: 0"),
@@ -89,7 +107,7 @@ fn check_data_finds_each_planted_defect() {
 fn finedance_set_trains_samples_and_scores() {
     let tmp = tempfile::tempdir().unwrap();
     let ds = tmp.path().join("fd");
-    synth(&ds, "12", "5");
+    synth(&ds, "finedance", "12", "5");
     let (ok, text) = stdout_of(qean().arg("inspect").arg(ds.join("music_wav/063.wav")));
     assert!(
         ok && text.contains("sample rate: 8000 Hz") && text.contains("feature frames: "),
@@ -97,29 +115,11 @@ fn finedance_set_trains_samples_and_scores() {
     );
     let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
     let run = |name: &str| tmp.path().join(name);
-    let train = |config: &str, name: &str, extra: &[String]| {
-        let (ok, text) = stdout_of(
-            qean()
-                .arg("train")
-                .arg("--config")
-                .arg(configs.join(config))
-                .arg("--data")
-                .arg(&ds)
-                .arg("--run-dir")
-                .arg(run(name))
-                .args(["--set", "train.steps=2"])
-                .args(extra.iter().flat_map(|e| ["--set".to_string(), e.clone()])),
-        );
-        assert!(ok, "{config}: {text}");
-    };
-    train("tiny/fact.toml", "fact", &[]);
-    train("control/vqvae_tiny.toml", "vq", &[]);
+    train(&ds, "tiny/fact.toml", &run("fact"), &[]);
+    train(&ds, "control/vqvae_tiny.toml", &run("vq"), &[]);
     let vq: PathBuf = run("vq");
-    train(
-        "control/gpt_tiny.toml",
-        "gpt",
-        &[format!("gpt.vqvae_run={}", vq.display())],
-    );
+    let gpt_set = format!("gpt.vqvae_run={}", vq.display());
+    train(&ds, "control/gpt_tiny.toml", &run("gpt"), &[gpt_set]);
     let (ok, text) = stdout_of(
         qean()
             .args(["sample", "--run"])
@@ -141,7 +141,10 @@ fn finedance_set_trains_samples_and_scores() {
             .arg(&ds),
     );
     assert!(ok && text.contains("protocol preset lodge"), "{text}");
-    assert!(text.contains("| FineDance |") && !text.contains("| AIST++ |"), "{text}");
+    assert!(
+        text.contains("| FineDance |") && !text.contains("| AIST++ |"),
+        "{text}"
+    );
     assert!(run("gpt").join("eval/step-2/report.md").is_file());
     assert_clean_failure(
         qean()
@@ -163,7 +166,7 @@ fn finedance_set_trains_samples_and_scores() {
 fn bad_finedance_sets_fail_in_one_line() {
     let tmp = tempfile::tempdir().unwrap();
     let ds = tmp.path().join("fd");
-    synth(&ds, "6", "2");
+    synth(&ds, "finedance", "6", "2");
     let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/tiny/fact.toml");
     let train = || {
         let mut c = qean();
@@ -196,50 +199,21 @@ fn bad_finedance_sets_fail_in_one_line() {
 fn a_folder_of_dances_trains_and_scores() {
     let tmp = tempfile::tempdir().unwrap();
     let ds = tmp.path().join("mine");
-    let st = qean()
-        .args([
-            "synth",
-            "--layout",
-            "folder",
-            "--sample-rate",
-            "8000",
-            "--sequences",
-            "12",
-            "--seconds",
-            "5",
-        ])
-        .arg("--out")
-        .arg(&ds)
-        .status()
-        .unwrap();
-    assert!(st.success());
+    synth(&ds, "folder", "12", "5");
     let (ok, text) = stdout_of(qean().arg("check-data").arg(&ds));
     assert!(
         ok && text.contains("folder layout") && text.contains("defects: 0"),
         "{text}"
     );
-    let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/control");
-    for (config, name, extra) in [
-        ("vqvae_tiny.toml", "vq", String::from("train.steps=2")),
-        (
-            "gpt_tiny.toml",
-            "gpt",
-            format!("gpt.vqvae_run={}", tmp.path().join("vq").display()),
-        ),
-    ] {
-        let (ok, text) = stdout_of(
-            qean()
-                .arg("train")
-                .arg("--config")
-                .arg(configs.join(config))
-                .arg("--data")
-                .arg(&ds)
-                .arg("--run-dir")
-                .arg(tmp.path().join(name))
-                .args(["--set", "train.steps=2", "--set", &extra]),
-        );
-        assert!(ok, "{config}: {text}");
-    }
+    let vq = tmp.path().join("vq");
+    train(&ds, "control/vqvae_tiny.toml", &vq, &[]);
+    let gpt_set = format!("gpt.vqvae_run={}", vq.display());
+    train(
+        &ds,
+        "control/gpt_tiny.toml",
+        &tmp.path().join("gpt"),
+        &[gpt_set],
+    );
     let (ok, text) = stdout_of(
         qean()
             .arg("eval")

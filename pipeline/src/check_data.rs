@@ -44,6 +44,8 @@ pub struct SequenceFacts {
     pub slide: f64,
     /// Largest joint move between consecutive frames (metres).
     pub max_jump: f64,
+    /// Largest distance of a joint coordinate from the origin (metres).
+    pub reach: f64,
     fingerprint: u64,
 }
 
@@ -211,11 +213,8 @@ fn facts(name: &str, m: &Motion) -> SequenceFacts {
         name: name.to_string(),
         seconds: m.seconds(),
         slide: sliding as f64 / on.max(1) as f64,
-        max_jump: if reach > MAX_REACH_M {
-            f64::INFINITY
-        } else {
-            max_jump
-        },
+        max_jump,
+        reach,
         fingerprint,
     }
 }
@@ -230,7 +229,7 @@ fn motion_defects(
     let mut seen: HashMap<u64, &str> = HashMap::new();
     for s in sequences {
         let path = ds.motion_path(&s.name);
-        if s.max_jump.is_infinite() {
+        if s.reach > MAX_REACH_M {
             out.push(Defect {
                 path: path.clone(),
                 problem: format!("a joint lies over {MAX_REACH_M} m from the origin"),
