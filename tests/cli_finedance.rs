@@ -146,18 +146,50 @@ fn finedance_set_trains_samples_and_scores() {
         "{text}"
     );
     assert!(run("gpt").join("eval/step-2/report.md").is_file());
-    assert_clean_failure(
+    // The genre judge learns FineDance's sixteen genres from its labels and reports on them.
+    train(&ds, "control/genre_clf_tiny.toml", &run("clf"), &[]);
+    let (ok, text) = stdout_of(
         qean()
-            .arg("train")
-            .arg("--config")
-            .arg(configs.join("control/genre_clf_tiny.toml"))
+            .arg("eval")
+            .arg("--run")
+            .arg(run("clf"))
             .arg("--data")
-            .arg(&ds)
-            .arg("--run-dir")
-            .arg(run("clf")),
-        "genre",
+            .arg(&ds),
     );
-    assert!(!run("clf").exists());
+    assert!(
+        ok && text.contains("| Breaking |") && text.contains("(chance 0.06)"),
+        "{text}"
+    );
+    let config = std::fs::read_to_string(run("clf").join("config.toml")).unwrap();
+    assert!(config.contains("genres = \"finedance\""), "{config}");
+    // Genre control is built over AIST++'s ten genres: it refuses in one error line (after the preset's own
+    // warning), and writes nothing.
+    let gpt_set = format!("genre.gpt_run={}", run("gpt").display());
+    let out = qean()
+        .arg("train")
+        .arg("--config")
+        .arg(configs.join("control/genre_tiny.toml"))
+        .arg("--data")
+        .arg(&ds)
+        .arg("--run-dir")
+        .arg(run("genre"))
+        .args(["--set", &gpt_set])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let errors: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("error: "))
+        .collect();
+    assert!(
+        !out.status.success() && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+    assert!(
+        errors.len() == 1 && errors[0].contains("AIST++'s ten genres"),
+        "{stderr}"
+    );
+    assert!(!run("genre").exists());
 }
 
 /// A FineDance set whose splits/ lacks a list, or whose motion has the wrong width: one error line naming the

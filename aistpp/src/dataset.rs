@@ -289,11 +289,16 @@ impl Dataset {
         }
     }
 
-    /// The AIST++ genre (index into `names::GENRES`) of a sequence; other layouts have none of these ten.
+    /// The genre of a sequence as an index into its layout's [`crate::layout::GenreSet`]: AIST++'s from the
+    /// name, FineDance's from its label file (`None` without a readable, known label; a folder has none).
     pub fn genre(&self, name: &str) -> Option<usize> {
         match self.layout {
             DataLayout::Aistpp => genre_of(name),
-            DataLayout::FineDance | DataLayout::Folder => None,
+            DataLayout::FineDance => {
+                let label = self.genre_label(name).ok().flatten()?;
+                crate::layout::GenreSet::FineDance.index(&label)
+            }
+            DataLayout::Folder => None,
         }
     }
 

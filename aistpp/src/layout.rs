@@ -89,6 +89,49 @@ pub fn finedance_genre(label: &str) -> Option<&'static str> {
         })
 }
 
+/// A dataset's genre vocabulary: what a genre index means to the classifier that judges dances.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum GenreSet {
+    /// AIST++'s ten, by their codes (BR, PO, …, JB).
+    #[default]
+    Aistpp,
+    /// FineDance's sixteen labels ([`FINEDANCE_GENRES`]).
+    FineDance,
+}
+
+impl GenreSet {
+    pub fn names(self) -> &'static [&'static str] {
+        match self {
+            GenreSet::Aistpp => &crate::names::GENRES,
+            GenreSet::FineDance => &FINEDANCE_GENRES,
+        }
+    }
+
+    pub fn count(self) -> usize {
+        self.names().len()
+    }
+
+    /// The index of a genre named as the vocabulary spells it (AIST++: a code such as `KR`; FineDance: a label
+    /// or one of its aliases), ignoring case.
+    pub fn index(self, name: &str) -> Option<usize> {
+        let name = match self {
+            GenreSet::Aistpp => name.trim(),
+            GenreSet::FineDance => finedance_genre(name).or_else(|| {
+                FINEDANCE_GENRES
+                    .iter()
+                    .copied()
+                    .find(|g| g.eq_ignore_ascii_case(name.trim()))
+            })?,
+        };
+        self.names()
+            .iter()
+            .position(|g| g.eq_ignore_ascii_case(name))
+    }
+}
+
 /// Which of FineDance's two published splits embedded lists stand for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FineDanceSplit {
@@ -150,6 +193,15 @@ impl DataLayout {
             DataLayout::Aistpp => "aistpp",
             DataLayout::FineDance => "finedance",
             DataLayout::Folder => "folder",
+        }
+    }
+
+    /// The genre vocabulary of its data (a folder's dances have none).
+    pub fn genre_set(self) -> Option<GenreSet> {
+        match self {
+            DataLayout::Aistpp => Some(GenreSet::Aistpp),
+            DataLayout::FineDance => Some(GenreSet::FineDance),
+            DataLayout::Folder => None,
         }
     }
 
@@ -358,6 +410,20 @@ mod tests {
         for n in test.iter().chain(&val).chain(&ignore) {
             assert!(DataLayout::FineDance.check_name(n).is_ok(), "{n}");
         }
+    }
+
+    #[test]
+    fn genre_vocabularies() {
+        assert_eq!(GenreSet::Aistpp.count(), 10);
+        assert_eq!(GenreSet::FineDance.count(), 16);
+        assert_eq!(GenreSet::Aistpp.index("kr"), Some(7));
+        assert_eq!(GenreSet::FineDance.index("breaking"), Some(0));
+        assert_eq!(
+            GenreSet::FineDance.index("Tai"),
+            GenreSet::FineDance.index("Dai")
+        );
+        assert_eq!(GenreSet::FineDance.index("KR"), None);
+        assert_eq!(DataLayout::Folder.genre_set(), None);
     }
 
     #[test]

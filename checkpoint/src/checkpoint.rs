@@ -182,7 +182,12 @@ impl Checkpoint {
             )?;
         }
         if let (Some(a), Some(b)) = (&self.config.genre_clf, &config.genre_clf) {
-            self.same_shape("genre classifier", a.width, b.width, "width")?;
+            self.same_shape(
+                "genre classifier",
+                (a.width, a.genres),
+                (b.width, b.genres),
+                "width, genres",
+            )?;
         }
         self.check_control_shapes(config)?;
         let shape = |c: &qean_config::RunConfig| {

@@ -1,5 +1,5 @@
 //! `[genre_clf]`: the genre classifier of the control evaluation (SPEC §13.10): pos72 windows → conv stack →
-//! time mean → 10 genre logits. It judges whether `--genre` steers a dance.
+//! time mean → a logit per genre (AIST++'s 10, FineDance's 16). It judges whether `--genre` steers a dance.
 
 use serde::{Deserialize, Serialize};
 
@@ -20,6 +20,9 @@ pub struct GenreClfConfig {
     /// the paper's training). The crossmodal split holds each genre's test music out of its training music,
     /// so without it a judge can learn a genre's tempi instead of its moves.
     pub tempo_augment: f64,
+    /// The genre vocabulary, one logit each: `aistpp` (AIST++'s ten) or `finedance` (its sixteen). Training
+    /// sets it from the data.
+    pub genres: qean_aistpp::layout::GenreSet,
 }
 
 impl Default for GenreClfConfig {
@@ -30,6 +33,7 @@ impl Default for GenreClfConfig {
             eval_stride: 120,
             yaw_augment: false,
             tempo_augment: 1.0,
+            genres: qean_aistpp::layout::GenreSet::Aistpp,
         }
     }
 }

@@ -6,7 +6,6 @@ use std::path::{Path, PathBuf};
 
 use burn::tensor::{Device, Tensor, TensorData};
 use qean_aistpp::dataset::Dataset;
-use qean_aistpp::names::GENRES;
 use qean_checkpoint::checkpoint::Checkpoint;
 use qean_checkpoint::genre_clf::pos72_rows;
 use qean_checkpoint::FamilyModel;
@@ -39,7 +38,7 @@ impl TrainedClf {
         })
     }
 
-    /// Summed window logits (10) of a motion: windows of `window` frames every `eval_stride` (one
+    /// Summed window logits (one a genre) of a motion: windows of `window` frames every `eval_stride` (one
     /// window of the whole motion, cropped to a multiple of 8, when it is shorter).
     pub fn logits(&self, motion: &Motion) -> Vec<f32> {
         let rows = pos72_rows(motion);
@@ -53,7 +52,7 @@ impl TrainedClf {
             vec![(0, (frames / 8 * 8).max(8).min(frames))]
         };
         let device = Device::flex();
-        let mut sum = vec![0f32; GENRES.len()];
+        let mut sum = vec![0f32; self.config.genres.count()];
         for (s, len) in windows {
             let x = Tensor::<3>::from_data(
                 TensorData::new(rows[s * POS72..(s + len) * POS72].to_vec(), [1, len, POS72]),
@@ -73,6 +72,20 @@ impl TrainedClf {
         sum
     }
 
+    /// An error unless `ds` names its genres as this classifier does.
+    pub fn check_data(&self, ds: &Dataset) -> Result<()> {
+        if ds.layout.genre_set() == Some(self.config.genres) {
+            return Ok(());
+        }
+        Err(crate::Error::invalid(format!(
+            "{}: the classifier of {} judges {:?} genres, the data is {}",
+            ds.root.display(),
+            self.checkpoint.dir.display(),
+            self.config.genres,
+            ds.layout.name()
+        )))
+    }
+
     /// The verdict: the genre index with the largest summed logit.
     pub fn classify(&self, motion: &Motion) -> usize {
         let l = self.logits(motion);
@@ -87,6 +100,8 @@ pub struct ClfEvaluation {
     pub step: u64,
     pub sequences: usize,
     pub accuracy: f64,
+    /// The genres' names, in index order.
+    pub genres: Vec<String>,
     /// confusion[true][predicted].
     pub confusion: Vec<Vec<usize>>,
 }
@@ -94,8 +109,10 @@ pub struct ClfEvaluation {
 /// The classifier's confusion matrix (rows: true genre) on the ground-truth test + val sequences that name
 /// a genre, and how many those are.
 pub fn ground_truth_confusion(clf: &TrainedClf, ds: &Dataset) -> Result<(Vec<Vec<usize>>, usize)> {
+    clf.check_data(ds)?;
     let names = crate::evaluate::protocol_sequences(ds, Default::default())?;
-    let mut confusion = vec![vec![0usize; GENRES.len()]; GENRES.len()];
+    let n = clf.config.genres.count();
+    let mut confusion = vec![vec![0usize; n]; n];
     let mut scored = 0;
     for name in &names {
         let Some(truth) = ds.genre(name) else {
@@ -113,7 +130,7 @@ pub fn evaluate_clf(req: &RunEvalRequest) -> Result<(ClfEvaluation, String)> {
     let clf = TrainedClf::load(&req.run, req.checkpoint.as_deref())?;
     let ds = Dataset::open(&req.data)?;
     let (confusion, scored) = ground_truth_confusion(&clf, &ds)?;
-    let correct: usize = (0..GENRES.len()).map(|g| confusion[g][g]).sum();
+    let correct: usize = (0..confusion.len()).map(|g| confusion[g][g]).sum();
     let accuracy = correct as f64 / scored.max(1) as f64;
     if accuracy < 0.8 {
         tracing::warn!(
@@ -127,6 +144,13 @@ pub fn evaluate_clf(req: &RunEvalRequest) -> Result<(ClfEvaluation, String)> {
         step: clf.checkpoint.state.step,
         sequences: scored,
         accuracy,
+        genres: clf
+            .config
+            .genres
+            .names()
+            .iter()
+            .map(|g| g.to_string())
+            .collect(),
         confusion,
     };
     let md = markdown(&report);
@@ -138,17 +162,18 @@ pub fn evaluate_clf(req: &RunEvalRequest) -> Result<(ClfEvaluation, String)> {
 pub fn markdown(r: &ClfEvaluation) -> String {
     let mut s = format!(
         "# Genre classifier, step {}\n\nCheckpoint {}. Accuracy on {} ground-truth test + val sequences: **{:.3}** \
-         (chance 0.1).\n\n| true \\ predicted | {} |\n|---|{}\n",
+         (chance {:.2}).\n\n| true \\ predicted | {} |\n|---|{}\n",
         r.step,
         r.checkpoint.display(),
         r.sequences,
         r.accuracy,
-        GENRES.join(" | "),
-        "---|".repeat(GENRES.len())
+        1.0 / r.genres.len().max(1) as f64,
+        r.genres.join(" | "),
+        "---|".repeat(r.genres.len())
     );
     for (g, row) in r.confusion.iter().enumerate() {
         let cells: Vec<String> = row.iter().map(|c| c.to_string()).collect();
-        s += &format!("| {} | {} |\n", GENRES[g], cells.join(" | "));
+        s += &format!("| {} | {} |\n", r.genres[g], cells.join(" | "));
     }
     s
 }

@@ -220,6 +220,15 @@ impl Family for GenreFamily {
         spec: WindowSpec,
         config: &RunConfig,
     ) -> Result<SequenceSet> {
+        if dataset.layout != qean_aistpp::layout::DataLayout::Aistpp {
+            return Err(Error::at(
+                &dataset.root,
+                format!(
+                    "genre control needs AIST++'s ten genres; this is a {} dataset (its genre judge trains on it)",
+                    dataset.layout.name()
+                ),
+            ));
+        }
         let set = self.base.load_set(dataset, split, spec, config)?;
         if let Some(s) = set
             .sequences

@@ -1,5 +1,5 @@
 //! The genre classifier as a trainer [`Family`] (SPEC §13.10): random pos72 windows of the training split,
-//! each labelled with its sequence's genre (the name's gXX code), cross-entropy.
+//! each labelled with its sequence's genre (AIST++: the name's gXX code; FineDance: its label), cross-entropy.
 
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use qean_aistpp::dataset::{Dataset, Split};
@@ -14,13 +14,17 @@ use qean_motion::motion::Layout;
 use qean_motion::pos72::POS72;
 use rand::{Rng, SeedableRng};
 
+use std::collections::HashMap;
+
 use crate::family::{Family, StepContext};
-use qean_aistpp::names::genre_of;
+use qean_checkpoint::checkpoint::Checkpoint;
 use qean_checkpoint::genre_clf::pos72_rows;
 
-/// The classifier family.
+/// The classifier family: the genre index of every sequence of its dataset, found by `prepare`.
 #[derive(Debug, Default)]
-pub struct GenreClfFamily;
+pub struct GenreClfFamily {
+    genres: HashMap<String, usize>,
+}
 
 /// The `[genre_clf]` table of a classifier run.
 pub fn clf_of(config: &RunConfig) -> &GenreClfConfig {
@@ -44,14 +48,14 @@ pub fn clf_loss(logits: Tensor<2>, labels: &[usize], device: &Device) -> Tensor<
 fn tensors(
     batch: Batch,
     device: &Device,
-    c: &GenreClfConfig,
+    (c, genres): (&GenreClfConfig, &HashMap<String, usize>),
     seed: Option<u64>,
 ) -> (Tensor<3>, Vec<usize>) {
     let (b, drawn, t) = (batch.len(), batch.spec.motion_len, c.window);
     let labels = batch
         .names
         .iter()
-        .map(|n| genre_of(n).unwrap_or(0))
+        .map(|n| genres.get(n).copied().unwrap_or(0))
         .collect();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed.unwrap_or(0) ^ 0x7E4B_0A11);
     let mut rows = Vec::with_capacity(b * t * POS72);
@@ -107,6 +111,35 @@ impl Family for GenreClfFamily {
         Ok(GenreClassifier::new(clf_of(config), device))
     }
 
+    /// The genre vocabulary is the data's (written into the run's config); every sequence's genre looked up
+    /// once (FineDance's label files).
+    fn prepare(
+        &mut self,
+        config: &mut RunConfig,
+        dataset: &Dataset,
+        _train: Split,
+        _resume: Option<&Checkpoint>,
+    ) -> Result<()> {
+        let Some(set) = dataset.layout.genre_set() else {
+            return Err(Error::at(
+                &dataset.root,
+                "a folder of dances has no genres: the genre classifier trains on AIST++ or FineDance",
+            ));
+        };
+        let mut c = config.genre_clf_table().clone();
+        c.genres = set;
+        config.genre_clf = Some(c);
+        let mut names = dataset.all_sequences()?;
+        for split in Split::ALL {
+            names.extend(dataset.split(split));
+        }
+        self.genres = names
+            .into_iter()
+            .filter_map(|n| dataset.genre(&n).map(|g| (n, g)))
+            .collect();
+        Ok(())
+    }
+
     /// Windows of pos72 rows; sequences without a genre code are left out.
     fn load_set(
         &self,
@@ -129,11 +162,14 @@ impl Family for GenreClfFamily {
             },
             |_, _| Vec::new(),
         )?;
-        set.sequences.retain(|s| genre_of(&s.name).is_some());
+        set.sequences.retain(|s| self.genres.contains_key(&s.name));
         if set.sequences.is_empty() {
             return Err(Error::at(
                 &dataset.root,
-                format!("no {} sequence carries a genre code (gBR_…)", split.name()),
+                format!(
+                    "no {} sequence has a genre (an AIST++ name's gBR_… code, a FineDance label_json/ file)",
+                    split.name()
+                ),
             ));
         }
         Ok(set)
@@ -146,7 +182,12 @@ impl Family for GenreClfFamily {
         device: &Device,
         ctx: &StepContext,
     ) -> Self::Inputs {
-        tensors(drawn, device, clf_of(ctx.config), Some(ctx.rng_seed))
+        tensors(
+            drawn,
+            device,
+            (clf_of(ctx.config), &self.genres),
+            Some(ctx.rng_seed),
+        )
     }
 
     fn loss(
@@ -167,7 +208,7 @@ impl Family for GenreClfFamily {
         device: &Device,
     ) -> f64 {
         crate::family::mean_over_first_windows(set, config.train.batch_size, |batch| {
-            let (x, labels) = tensors(batch, device, clf_of(config), None);
+            let (x, labels) = tensors(batch, device, (clf_of(config), &self.genres), None);
             clf_loss(model.forward(x), &labels, device)
         })
     }

@@ -16,7 +16,11 @@ pub fn train(config: RunConfig, opts: &TrainOptions) -> Result<TrainOutcome> {
         ModelSpec::Inbetween(_) => {
             train_family(&mut crate::inbetween::InbetweenFamily, config, opts)
         }
-        ModelSpec::GenreClf(_) => train_family(&mut crate::genre_clf::GenreClfFamily, config, opts),
+        ModelSpec::GenreClf(_) => train_family(
+            &mut crate::genre_clf::GenreClfFamily::default(),
+            config,
+            opts,
+        ),
         ModelSpec::GptGenre(..) => {
             train_family(&mut crate::genre::GenreFamily::default(), config, opts)
         }

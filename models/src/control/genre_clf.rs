@@ -1,5 +1,5 @@
 //! The genre classifier of SPEC §13.10: pos72 windows [B, T, 72] → Conv1d(72 → W, k3) ReLU → 3 × [Conv1d(W → W,
-//! k4, s2, p1) ReLU] → mean over time → Linear(W → 10). PyTorch's default init (U(±1/√fan_in)), set explicitly.
+//! k4, s2, p1) ReLU] → mean over time → Linear(W → genres: AIST++'s 10, FineDance's 16). PyTorch's default init (U(±1/√fan_in)), set explicitly.
 
 use burn::module::Module;
 use burn::nn::conv::Conv1d;
@@ -10,9 +10,6 @@ use qean_config::genre_clf::GenreClfConfig;
 use qean_motion::pos72::POS72;
 
 use crate::vqvae::encdec::conv;
-
-/// Genres (the AIST++ order: BR PO LO MH LH HO WA KR JS JB).
-pub const GENRES: usize = 10;
 
 #[derive(Module, Debug)]
 pub struct GenreClassifier {
@@ -28,7 +25,7 @@ impl GenreClassifier {
         GenreClassifier {
             input: conv(POS72, w, 3, 1, 1, 1, device),
             down: (0..3).map(|_| conv(w, w, 4, 2, 1, 1, device)).collect(),
-            output: LinearConfig::new(w, GENRES)
+            output: LinearConfig::new(w, c.genres.count())
                 .with_initializer(Initializer::Uniform {
                     min: -bound,
                     max: bound,
@@ -37,7 +34,7 @@ impl GenreClassifier {
         }
     }
 
-    /// Logits [B, 10] of windows [B, T, 72].
+    /// Logits [B, genres] of windows [B, T, 72].
     pub fn forward(&self, x: Tensor<3>) -> Tensor<2> {
         let mut h = relu(self.input.forward(x.swap_dims(1, 2)));
         for d in &self.down {
@@ -48,10 +45,10 @@ impl GenreClassifier {
     }
 }
 
-/// SPEC §13.9: 3·72·W + W + 3(4W² + W) + 10W + 10.
+/// SPEC §13.9: 3·72·W + W + 3(4W² + W) + 10W + 10, with G genres in place of AIST++'s 10.
 pub fn genre_clf_params(c: &GenreClfConfig) -> usize {
-    let w = c.width;
-    3 * POS72 * w + w + 3 * (4 * w * w + w) + 10 * w + 10
+    let (w, g) = (c.width, c.genres.count());
+    3 * POS72 * w + w + 3 * (4 * w * w + w) + g * w + g
 }
 
 #[cfg(test)]
@@ -69,6 +66,16 @@ mod tests {
             assert_eq!(GenreClassifier::new(&c, &device).num_params(), want);
             assert_eq!(genre_clf_params(&c), want);
         }
+        let c = GenreClfConfig {
+            width: 64,
+            genres: qean_aistpp::layout::GenreSet::FineDance,
+            ..GenreClfConfig::default()
+        };
+        let n = GenreClassifier::new(&c, &device).num_params();
+        assert_eq!(
+            (n, genre_clf_params(&c)),
+            (63_882 + 6 * 65, 63_882 + 6 * 65)
+        );
         let c = GenreClfConfig {
             width: 8,
             ..GenreClfConfig::default()
