@@ -113,7 +113,6 @@ fn finedance_set_trains_samples_and_scores() {
         ok && text.contains("sample rate: 8000 Hz") && text.contains("feature frames: "),
         "{text}"
     );
-    let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
     let run = |name: &str| tmp.path().join(name);
     train(&ds, "tiny/fact.toml", &run("fact"), &[]);
     train(&ds, "control/vqvae_tiny.toml", &run("vq"), &[]);
@@ -162,34 +161,43 @@ fn finedance_set_trains_samples_and_scores() {
     );
     let config = std::fs::read_to_string(run("clf").join("config.toml")).unwrap();
     assert!(config.contains("genres = \"finedance\""), "{config}");
-    // Genre control is built over AIST++'s ten genres: it refuses in one error line (after the preset's own
-    // warning), and writes nothing.
+    // Genre control over FineDance's sixteen: trains, dances a requested genre by its label, refuses an
+    // AIST++ code, and runs the control test with the judge above.
     let gpt_set = format!("genre.gpt_run={}", run("gpt").display());
-    let out = qean()
-        .arg("train")
-        .arg("--config")
-        .arg(configs.join("control/genre_tiny.toml"))
-        .arg("--data")
-        .arg(&ds)
-        .arg("--run-dir")
-        .arg(run("genre"))
-        .args(["--set", &gpt_set])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    let errors: Vec<&str> = stderr
-        .lines()
-        .filter(|l| l.starts_with("error: "))
-        .collect();
-    assert!(
-        !out.status.success() && !stderr.contains("panicked"),
-        "{stderr}"
+    train(&ds, "control/genre_tiny.toml", &run("genre"), &[gpt_set]);
+    let (ok, text) = stdout_of(
+        qean()
+            .args(["sample", "--genre", "dai", "--frames", "240", "--run"])
+            .arg(run("genre"))
+            .arg("--music")
+            .arg(ds.join("music_wav/063.wav"))
+            .arg("--out")
+            .arg(tmp.path().join("dai")),
+    );
+    assert!(ok && tmp.path().join("dai/063.pkl").is_file(), "{text}");
+    assert_clean_failure(
+        qean()
+            .args(["sample", "--genre", "KR", "--run"])
+            .arg(run("genre"))
+            .arg("--music")
+            .arg(ds.join("music_wav/063.wav"))
+            .arg("--out")
+            .arg(tmp.path().join("kr")),
+        "unknown genre `KR`: expected one of Breaking",
+    );
+    let (ok, text) = stdout_of(
+        qean()
+            .args(["eval", "--max-frames", "240", "--run"])
+            .arg(run("genre"))
+            .arg("--data")
+            .arg(&ds)
+            .arg("--classifier")
+            .arg(run("clf")),
     );
     assert!(
-        errors.len() == 1 && errors[0].contains("AIST++'s ten genres"),
-        "{stderr}"
+        ok && text.contains("× 16 requested genres") && text.contains("| Dai |"),
+        "{text}"
     );
-    assert!(!run("genre").exists());
 }
 
 /// A FineDance set whose splits/ lacks a list, or whose motion has the wrong width: one error line naming the

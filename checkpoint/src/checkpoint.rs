@@ -259,13 +259,14 @@ impl Checkpoint {
                     c.disc_layers,
                     c.disc_ff,
                     c.disc_heads,
+                    c.genres,
                 )
             };
             self.same_shape(
                 "genre module",
                 shape(a),
                 shape(b),
-                "code_dim, z_dim, tokens, xattn_on, disc_width, disc_layers, disc_ff, disc_heads",
+                "code_dim, z_dim, tokens, xattn_on, disc_width, disc_layers, disc_ff, disc_heads, genres",
             )?;
         }
         if let (Some(a), Some(b)) = (&self.config.vq, &config.vq) {

@@ -75,6 +75,9 @@ pub struct GenreConfig {
     /// Sampling: logits = l_plain + s·(l_genre − l_plain), l_plain the frozen GPT's without the genre tokens
     /// (classifier-free guidance, Ho & Salimans 2022; not in SPEC). 1 = the paper's (l_genre alone).
     pub guidance: f64,
+    /// The genre vocabulary: `aistpp` (AIST++'s ten branches and heads) or `finedance` (its sixteen).
+    /// Training sets it from the data.
+    pub genres: qean_aistpp::layout::GenreSet,
 }
 
 impl Default for GenreConfig {
@@ -104,6 +107,7 @@ impl GenreConfig {
             lambda_adv: 1.0,
             lambda_div: 0.0,
             guidance: 1.0,
+            genres: qean_aistpp::layout::GenreSet::Aistpp,
         }
     }
 

@@ -204,7 +204,7 @@ pub fn evaluate_run(req: &RunEvalRequest) -> Result<RunEvaluation> {
     // A genre-control run dances each track in the track's own genre (SPEC §13.10).
     let genres: Vec<Option<usize>> = pairs
         .iter()
-        .map(|(_, music, _)| crate::genre_control::music_genre(music))
+        .map(|(_, music, _)| crate::genre_control::music_genre(&ds, music))
         .collect();
     let dances = sample_dances(
         req,

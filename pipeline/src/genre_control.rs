@@ -7,8 +7,6 @@
 use std::path::{Path, PathBuf};
 
 use qean_aistpp::dataset::Dataset;
-use qean_aistpp::names::genre_of;
-use qean_aistpp::names::GENRES;
 use qean_eval::config::EvalConfig;
 use qean_eval::positions::Sequence;
 use qean_eval::run_report::{frames_of, pairings, Protocol};
@@ -67,6 +65,8 @@ pub struct ControlReport {
     pub accuracy: f64,
     pub accuracy_own: f64,
     pub accuracy_other: f64,
+    /// The genres' names, in index order (the run's vocabulary).
+    pub genres: Vec<String>,
     /// confusion[requested][predicted].
     pub confusion: Vec<Vec<usize>>,
     pub per_genre: Vec<GenreQuality>,
@@ -74,9 +74,15 @@ pub struct ControlReport {
     pub energy: Vec<GenreEnergy>,
 }
 
-/// The genre of a music ID (`mBR0` → BR).
-pub(crate) fn music_genre(music: &str) -> Option<usize> {
-    qean_aistpp::names::genre_index(music.strip_prefix('m')?)
+/// The genre of a music ID: AIST++'s from the ID (`mBR0` → BR), FineDance's from its dance's label (each
+/// dance has its own music).
+pub(crate) fn music_genre(ds: &Dataset, music: &str) -> Option<usize> {
+    match ds.layout {
+        qean_aistpp::layout::DataLayout::Aistpp => {
+            qean_aistpp::names::genre_index(music.strip_prefix('m')?)
+        }
+        _ => ds.genre(music),
+    }
 }
 
 /// Runs the control test; writes the report beside the run's evaluations.
@@ -97,20 +103,20 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
         )));
     }
     let ds = Dataset::open(&req.data)?;
+    let genres = crate::gpt::run_genres(&ck, &ds)?;
     let names = crate::evaluate::protocol_sequences(&ds, req.splits())?;
     let pairs = pairings(&names, Protocol::Paired, |n| ds.music_id(n));
     let (requests, _) = crate::evaluate::sample_requests(&ds, &pairs, &ck.config, req.seed_start)?;
-    let g = ck.config.gpt_table();
-    let mut run = GptRun::load(&ck)?;
+    let (g, mut run) = (ck.config.gpt_table(), GptRun::load(&ck)?);
     run.decoding = req.sampling.decoding(run.decoding);
     let picking = Picking::of(g, &req.sampling.picking(), req.sampling.sample_seed);
     let layout = ck.config.layout();
     let dim = qean_aistpp::windows::AUDIO_DIM;
-    let total = requests.len() * GENRES.len();
+    let total = requests.len() * genres.len();
     let pb = qean_checkpoint::progress::bar(total as u64, "genre control test", "dances");
-    let mut confusion = vec![vec![0usize; GENRES.len()]; GENRES.len()];
+    let mut confusion = vec![vec![0usize; genres.len()]; genres.len()];
     let (mut own, mut other) = ((0, 0), (0, 0));
-    let mut generated: Vec<Vec<Sequence>> = vec![Vec::new(); GENRES.len()];
+    let mut generated: Vec<Vec<Sequence>> = vec![Vec::new(); genres.len()];
     for (i, (r, (_, music, _))) in requests.iter().zip(&pairs).enumerate() {
         let seed = Motion::from_layout(&r.seed, layout).map_err(Error::Invalid)?;
         let audio = (r.audio.as_slice(), r.audio.len() / dim);
@@ -136,14 +142,14 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
             let predicted = clf.classify(&dance);
             confusion[genre][predicted] += 1;
             let hit = usize::from(predicted == genre);
-            let tally = if music_genre(music) == Some(genre) {
+            let tally = if music_genre(&ds, music) == Some(genre) {
                 &mut own
             } else {
                 &mut other
             };
             *tally = (tally.0 + hit, tally.1 + 1);
             dances.push(Sequence::new(
-                format!("{music}-as-{}", GENRES[genre]),
+                format!("{music}-as-{}", genres[genre]),
                 frames_of(dance.joints(req.root)),
             ));
             pb.inc(1);
@@ -151,11 +157,11 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
     }
     pb.finish_and_clear();
     let reference = crate::evaluate::reference_set(&ds, req.root, req.splits())?;
-    let per_genre = per_genre_quality(&reference, &generated, req)?;
-    let energy = genre_energy(&reference, &generated);
+    let per_genre = per_genre_quality((&ds, &genres), &reference, &generated, req)?;
+    let energy = genre_energy(&genres, &reference, &generated);
     let (classifier_confusion, scored) = crate::genre_clf::ground_truth_confusion(&clf, &ds)?;
     let ratio = |(a, b): (usize, usize)| a as f64 / b.max(1) as f64;
-    let right: usize = (0..GENRES.len()).map(|g| classifier_confusion[g][g]).sum();
+    let right: usize = (0..genres.len()).map(|g| classifier_confusion[g][g]).sum();
     let report = ControlReport {
         checkpoint: ck.dir.clone(),
         step: ck.state.step,
@@ -167,6 +173,7 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
         accuracy: ratio((own.0 + other.0, own.1 + other.1)),
         accuracy_own: ratio(own),
         accuracy_other: ratio(other),
+        genres: genres.iter().map(|g| g.to_string()).collect(),
         confusion,
         per_genre,
         energy,
@@ -182,6 +189,7 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
 /// FID_k / FID_g of each genre's requested dances against the ground truth of that genre (genres with
 /// fewer than 2 of either are left out).
 fn per_genre_quality(
+    (ds, genres): (&Dataset, &[&str]),
     reference: &[Sequence],
     generated: &[Vec<Sequence>],
     req: &RunEvalRequest,
@@ -201,7 +209,7 @@ fn per_genre_quality(
     for (genre, dances) in generated.iter().enumerate() {
         let gt: Vec<Sequence> = reference
             .iter()
-            .filter(|s| genre_of(&s.name) == Some(genre))
+            .filter(|s| ds.genre(&s.name) == Some(genre))
             .cloned()
             .collect();
         if gt.len() < 2 || dances.len() < 2 {
@@ -209,7 +217,7 @@ fn per_genre_quality(
         }
         let (fid_k, fid_g) = qean_eval::protocol::fid_within(dances, &gt, reference, &cfg)?;
         out.push(GenreQuality {
-            genre: GENRES[genre].to_string(),
+            genre: genres[genre].to_string(),
             samples: dances.len(),
             reference: gt.len(),
             fid_k,
@@ -221,7 +229,11 @@ fn per_genre_quality(
 
 /// Speed and acceleration of each requested genre's dances against the whole ground truth (every genre's),
 /// the yardstick of every dance the demo judges.
-fn genre_energy(reference: &[Sequence], generated: &[Vec<Sequence>]) -> Vec<GenreEnergy> {
+fn genre_energy(
+    genres: &[&str],
+    reference: &[Sequence],
+    generated: &[Vec<Sequence>],
+) -> Vec<GenreEnergy> {
     use qean_eval::motion_energy::{motion_energy, EnergyReference};
     let yardstick = EnergyReference::fit(reference.iter().map(|s| s.joints.as_slice()));
     generated
@@ -232,7 +244,7 @@ fn genre_energy(reference: &[Sequence], generated: &[Vec<Sequence>]) -> Vec<Genr
             let (each, all) = motion_energy(dances.iter().map(|s| s.joints.as_slice()), &yardstick);
             let spans = || each.iter().flat_map(|e| e.spans.iter());
             GenreEnergy {
-                genre: GENRES[g].to_string(),
+                genre: genres[g].to_string(),
                 samples: dances.len(),
                 speed_ratio: all.speed_ratio,
                 accel_ratio: all.accel_ratio,
@@ -249,7 +261,7 @@ fn genre_energy(reference: &[Sequence], generated: &[Vec<Sequence>]) -> Vec<Genr
 pub fn markdown(r: &ControlReport) -> String {
     let mut s = format!(
         "# Genre control test, step {}\n\nCheckpoint {}; classifier {}. {} dances of {} frames (every paired \
-         music × 10 requested genres).\n\nAccuracy w.r.t. the requested genre: **{:.3}** (chance 0.1); \
+         music × {} requested genres).\n\nAccuracy w.r.t. the requested genre: **{:.3}** (chance {:.2}); \
          requested = the track's genre {:.3}, requested ≠ the track's genre {:.3}.\n\n\
          | requested \\ predicted | {} |\n|---|{}\n",
         r.step,
@@ -257,15 +269,17 @@ pub fn markdown(r: &ControlReport) -> String {
         r.classifier.display(),
         r.samples,
         r.frames,
+        r.genres.len(),
         r.accuracy,
+        1.0 / r.genres.len().max(1) as f64,
         r.accuracy_own,
         r.accuracy_other,
-        GENRES.join(" | "),
-        "---|".repeat(GENRES.len())
+        r.genres.join(" | "),
+        "---|".repeat(r.genres.len())
     );
     for (g, row) in r.confusion.iter().enumerate() {
         let cells: Vec<String> = row.iter().map(|c| c.to_string()).collect();
-        s += &format!("| {} | {} |\n", GENRES[g], cells.join(" | "));
+        s += &format!("| {} | {} |\n", r.genres[g], cells.join(" | "));
     }
     s += "\nEach requested genre's dances against that genre's ground truth (features normalised with the whole \
           ground truth's statistics):\n\n| genre | dances | GT sequences | FID_k | FID_g |\n|---|---|---|---|---|\n";
@@ -302,12 +316,12 @@ pub fn markdown(r: &ControlReport) -> String {
         } else {
             ""
         },
-        GENRES.join(" | "),
-        "---|".repeat(GENRES.len())
+        r.genres.join(" | "),
+        "---|".repeat(r.genres.len())
     );
     for (g, row) in r.classifier_confusion.iter().enumerate() {
         let cells: Vec<String> = row.iter().map(|c| c.to_string()).collect();
-        s += &format!("| {} | {} |\n", GENRES[g], cells.join(" | "));
+        s += &format!("| {} | {} |\n", r.genres[g], cells.join(" | "));
     }
     s
 }
@@ -318,9 +332,12 @@ mod tests {
 
     #[test]
     fn music_ids_name_their_genre() {
-        assert_eq!(music_genre("mBR0"), Some(0));
-        assert_eq!(music_genre("mJB5"), Some(9));
-        assert_eq!(music_genre("mXX1"), None);
-        assert_eq!(music_genre("song"), None);
+        let d = tempfile::tempdir().unwrap();
+        std::fs::create_dir(d.path().join("motions")).unwrap();
+        let ds = Dataset::open(d.path()).unwrap();
+        assert_eq!(music_genre(&ds, "mBR0"), Some(0));
+        assert_eq!(music_genre(&ds, "mJB5"), Some(9));
+        assert_eq!(music_genre(&ds, "mXX1"), None);
+        assert_eq!(music_genre(&ds, "song"), None);
     }
 }

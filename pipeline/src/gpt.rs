@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use burn::tensor::{Device, Int, Tensor, TensorData};
-use qean_aistpp::names::GENRES;
+use qean_aistpp::layout::GenreSet;
 use qean_checkpoint::checkpoint::Checkpoint;
 use qean_checkpoint::gpt::{music_tokens, normal_noise, FrozenVq};
 use qean_checkpoint::vqvae::{denormalise, pos72_options};
@@ -134,6 +134,23 @@ pub fn pick(
     best.0
 }
 
+/// A genre-control run's genre names, checked against the data it is evaluated on.
+pub(crate) fn run_genres(
+    ck: &qean_checkpoint::Checkpoint,
+    ds: &qean_aistpp::dataset::Dataset,
+) -> Result<Vec<&'static str>> {
+    let set = ck.config.genre_table().genres;
+    if ds.layout.genre_set() != Some(set) {
+        return Err(Error::msg(format!(
+            "{}: {} controls {set:?} genres, the data is {}",
+            ds.root.display(),
+            ck.dir.display(),
+            ds.layout.name()
+        )));
+    }
+    Ok(set.names().to_vec())
+}
+
 /// A requested genre (SPEC §13.8 "optional controls"): the genre index and the seed of the noise z.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct GenreChoice {
@@ -142,17 +159,14 @@ pub struct GenreChoice {
 }
 
 impl GenreChoice {
-    /// A genre from its AIST++ code (BR, PO, LO, MH, LH, HO, WA, KR, JS, JB).
-    pub fn parse(code: &str, z_seed: u64) -> Result<GenreChoice> {
-        let genre = GENRES
-            .iter()
-            .position(|g| g.eq_ignore_ascii_case(code))
-            .ok_or_else(|| {
-                Error::msg(format!(
-                    "unknown genre `{code}`: expected one of {}",
-                    GENRES.join(", ")
-                ))
-            })?;
+    /// A genre by its name in `set` (AIST++: BR, PO, LO, MH, LH, HO, WA, KR, JS, JB; FineDance: its labels).
+    pub fn parse(code: &str, set: GenreSet, z_seed: u64) -> Result<GenreChoice> {
+        let genre = set.index(code).ok_or_else(|| {
+            Error::msg(format!(
+                "unknown genre `{code}`: expected one of {}",
+                set.names().join(", ")
+            ))
+        })?;
         Ok(GenreChoice { genre, z_seed })
     }
 
@@ -265,7 +279,7 @@ impl TextRequest {
             }
         };
         if let Some(code) = name.strip_prefix("genre:") {
-            let genre = GenreChoice::parse(code, 0)?.genre;
+            let genre = GenreChoice::parse(code, GenreSet::Aistpp, 0)?.genre;
             return Ok(qean_checkpoint::gpt::genre_embedding(genre, dim));
         }
         qean_aistpp::text_set::read_embedding(Path::new(name), dim, g.text_l2_normalise)

@@ -134,9 +134,9 @@ pub struct SampleArgs {
     /// TSMT and GPT: seed of the draws.
     #[arg(long, default_value_t = 0)]
     pub sample_seed: u64,
-    /// Genre-control runs (model.arch = "gpt_genre"): dance in this AIST++ genre: BR (break), PO (pop),
+    /// Genre-control runs (model.arch = "gpt_genre"): dance in this genre. AIST++: BR (break), PO (pop),
     /// LO (lock), MH (middle hip-hop), LH (LA hip-hop), HO (house), WA (waack), KR (krump), JS (street
-    /// jazz), JB (ballet jazz).
+    /// jazz), JB (ballet jazz); FineDance: its labels (Breaking, Popping, Dai, Kun, …).
     #[arg(long)]
     pub genre: Option<String>,
     /// With --genre: the seed of the genre noise z (another seed, another dance of the same genre).
@@ -353,8 +353,9 @@ fn genre_choice(
             ck.config.model.arch
         );
     }
+    let set = ck.config.genre_table().genres;
     Ok(Some(qean_pipeline::gpt::GenreChoice::parse(
-        code, a.z_seed,
+        code, set, a.z_seed,
     )?))
 }
 

@@ -15,7 +15,7 @@ use qean_config::genre::{GenreConfig, Relax, XattnOn};
 use qean_config::gpt::MLayout;
 use qean_config::run::RunConfig;
 use qean_io::error::{Error, Result};
-use qean_models::control::genre::{disc_loss, gen_adv_loss, gumbel_relax, GenreGpt, GENRES};
+use qean_models::control::genre::{disc_loss, gen_adv_loss, gumbel_relax, GenreGpt};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -37,6 +37,8 @@ pub struct GenreFamily {
     /// The frozen codebook, K × C row-major (C = `genre.code_dim`).
     codebook: Vec<f32>,
     code_dim: usize,
+    /// Every sequence's genre (an index into the data's vocabulary, `genre.genres`).
+    genres: std::collections::HashMap<String, usize>,
 }
 
 /// A batch: the GPT's tensors, the sequences' genres and the noise of both groups.
@@ -60,7 +62,9 @@ pub struct Fake {
 
 fn fake(b: usize, n: usize, c: &GenreConfig, codes: usize, seed: u64, device: &Device) -> Fake {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let genres = (0..b).map(|_| rng.random_range(0..GENRES)).collect();
+    let genres = (0..b)
+        .map(|_| rng.random_range(0..c.genres.count()))
+        .collect();
     let uniform: Vec<f32> = (0..b * n * codes)
         .map(|_| rng.random_range(1e-6f32..1.0 - 1e-6))
         .collect();
@@ -75,16 +79,21 @@ fn noise_tensor(seed: u64, b: usize, z: usize, device: &Device) -> Tensor<2> {
     Tensor::from_data(TensorData::new(normal_noise(seed, b * z), [b, z]), device)
 }
 
-/// The AIST++ genre of each window's sequence.
-fn batch_genres(batch: &Batch) -> Vec<usize> {
-    batch
-        .names
-        .iter()
-        .map(|n| qean_aistpp::names::genre_of(n).expect("load_set keeps only named genres"))
-        .collect()
-}
-
 impl GenreFamily {
+    /// The genre of each window's sequence.
+    fn batch_genres(&self, batch: &Batch) -> Vec<usize> {
+        batch
+            .names
+            .iter()
+            .map(|n| {
+                *self
+                    .genres
+                    .get(n)
+                    .expect("load_set keeps only sequences with a genre")
+            })
+            .collect()
+    }
+
     fn codebook(&self, device: &Device) -> Tensor<2> {
         let k = self.codebook.len() / self.code_dim;
         Tensor::from_data(
@@ -161,7 +170,23 @@ impl Family for GenreFamily {
         train: Split,
         resume: Option<&Checkpoint>,
     ) -> Result<()> {
-        let c = genre_of_config(config).clone();
+        let Some(set) = dataset.layout.genre_set() else {
+            return Err(Error::at(
+                &dataset.root,
+                "a folder of dances has no genres: genre control trains on AIST++ or FineDance",
+            ));
+        };
+        let mut c = genre_of_config(config).clone();
+        c.genres = set;
+        config.genre = Some(c.clone());
+        let mut names = dataset.all_sequences()?;
+        Split::ALL
+            .iter()
+            .for_each(|s| names.extend(dataset.split(*s)));
+        self.genres = names
+            .into_iter()
+            .filter_map(|n| dataset.genre(&n).map(|g| (n, g)))
+            .collect();
         let frozen = FrozenGpt::resolve(c.gpt_run.as_deref(), "genre", gpt_of(config))?;
         let g = gpt_of(config);
         if g.m_layout == MLayout::TwoStream && c.xattn_on == XattnOn::Music {
@@ -220,24 +245,16 @@ impl Family for GenreFamily {
         spec: WindowSpec,
         config: &RunConfig,
     ) -> Result<SequenceSet> {
-        if dataset.layout != qean_aistpp::layout::DataLayout::Aistpp {
-            return Err(Error::at(
-                &dataset.root,
-                format!(
-                    "genre control needs AIST++'s ten genres; this is a {} dataset (its genre judge trains on it)",
-                    dataset.layout.name()
-                ),
-            ));
-        }
         let set = self.base.load_set(dataset, split, spec, config)?;
         if let Some(s) = set
             .sequences
             .iter()
-            .find(|s| dataset.genre(&s.name).is_none())
+            .find(|s| !self.genres.contains_key(&s.name))
         {
             return Err(Error::at(
                 dataset.motion_path(&s.name),
-                "genre control needs AIST++'s ten genres (a name such as gBR_sBM_cAll_d04_mBR0_ch02); this sequence has none",
+                "genre control needs every dance's genre (an AIST++ name such as gBR_sBM_cAll_d04_mBR0_ch02, a \
+                 FineDance label_json/ file); this sequence has none",
             ));
         }
         Ok(set)
@@ -251,7 +268,7 @@ impl Family for GenreFamily {
         ctx: &StepContext,
     ) -> GenreInputs {
         let (g, c) = (gpt_of(ctx.config), genre_of_config(ctx.config));
-        let genres = batch_genres(&drawn);
+        let genres = self.batch_genres(&drawn);
         let b = genres.len();
         let seed = ctx.rng_seed;
         GenreInputs {
@@ -325,7 +342,7 @@ impl Family for GenreFamily {
     ) -> f64 {
         let (g, c) = (gpt_of(config), genre_of_config(config));
         crate::family::mean_over_first_windows(set, config.train.batch_size, |batch| {
-            let genres = batch_genres(&batch);
+            let genres = self.batch_genres(&batch);
             let z = noise_tensor(0, genres.len(), c.z_dim, device);
             let x = tensors(&batch, g, 1.0, 0, device);
             let gz = model.genre.gen.forward(z, &genres);

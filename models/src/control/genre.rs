@@ -15,9 +15,6 @@ use qean_config::gpt::GptConfig;
 use crate::attention::{merge_heads, split_heads};
 use crate::control::gpt::{music_token_dim, Gpt};
 
-/// Genres (AIST++'s ten).
-pub const GENRES: usize = 10;
-
 fn layer_norm(d: usize, device: &Device) -> LayerNorm {
     LayerNormConfig::new(d).with_epsilon(1e-5).init(device)
 }
@@ -27,13 +24,13 @@ fn linear(d_in: usize, d_out: usize, bias: bool, device: &Device) -> Linear {
     LinearConfig::new(d_in, d_out).with_bias(bias).init(device)
 }
 
-/// A [B, 10, 1] one-hot of the genres, for selecting one branch per row.
-fn one_hot(genres: &[usize], device: &Device) -> Tensor<3> {
-    let mut v = vec![0f32; genres.len() * GENRES];
+/// A [B, count, 1] one-hot of the genres, for selecting one branch per row.
+fn one_hot(genres: &[usize], count: usize, device: &Device) -> Tensor<3> {
+    let mut v = vec![0f32; genres.len() * count];
     for (i, &g) in genres.iter().enumerate() {
-        v[i * GENRES + g] = 1.0;
+        v[i * count + g] = 1.0;
     }
-    Tensor::from_data(TensorData::new(v, [genres.len(), GENRES, 1]), device)
+    Tensor::from_data(TensorData::new(v, [genres.len(), count, 1]), device)
 }
 
 /// GEN (MNET `MappingNet`): shared Linear(z → D) GELU Linear(D → D) GELU, then one of 10 branches
@@ -48,12 +45,18 @@ pub struct MappingNet {
 }
 
 impl MappingNet {
-    pub fn new(z_dim: usize, d: usize, tokens: usize, device: &Device) -> MappingNet {
+    pub fn new(
+        z_dim: usize,
+        d: usize,
+        tokens: usize,
+        genres: usize,
+        device: &Device,
+    ) -> MappingNet {
         MappingNet {
             shared_in: linear(z_dim, d, true, device),
             shared_out: linear(d, d, true, device),
-            branch_in: (0..GENRES).map(|_| linear(d, d, true, device)).collect(),
-            branch_out: (0..GENRES)
+            branch_in: (0..genres).map(|_| linear(d, d, true, device)).collect(),
+            branch_out: (0..genres)
                 .map(|_| linear(d, tokens * d, true, device))
                 .collect(),
             tokens,
@@ -71,7 +74,8 @@ impl MappingNet {
             .zip(&self.branch_out)
             .map(|(a, b)| b.forward(gelu(a.forward(h.clone()))).unsqueeze_dim::<3>(1))
             .collect();
-        let picked = (Tensor::cat(all, 1) * one_hot(genres, &device)).sum_dim(1);
+        let count = self.branch_in.len();
+        let picked = (Tensor::cat(all, 1) * one_hot(genres, count, &device)).sum_dim(1);
         let [b, _, e] = picked.dims();
         picked.reshape([b, self.tokens, e / self.tokens])
     }
@@ -156,7 +160,7 @@ pub struct GenreModule {
 impl GenreModule {
     pub fn new(g: &GptConfig, c: &GenreConfig, device: &Device) -> GenreModule {
         GenreModule {
-            gen: MappingNet::new(c.z_dim, g.hidden, c.tokens, device),
+            gen: MappingNet::new(c.z_dim, g.hidden, c.tokens, c.genres.count(), device),
             xattn: (0..g.base_layers)
                 .map(|_| {
                     CrossAttention::new(g.hidden, g.heads, g.window, c.tokens, c.dropout, device)
@@ -254,7 +258,7 @@ impl Discriminator {
                 .map(|_| DiscLayer::new(c, 2 * g.window, device))
                 .collect(),
             pool: linear(d, d, true, device),
-            heads: linear(d, GENRES, true, device),
+            heads: linear(d, c.genres.count(), true, device),
             use_music: c.disc_music,
         }
     }
@@ -278,7 +282,8 @@ impl Discriminator {
     pub fn forward(&self, latents: Tensor<3>, music: Tensor<3>, genres: &[usize]) -> Tensor<1> {
         let device = latents.device();
         let all = self.all_heads(latents, music);
-        (all * one_hot(genres, &device).squeeze_dim::<2>(2))
+        let count = all.dims()[1];
+        (all * one_hot(genres, count, &device).squeeze_dim::<2>(2))
             .sum_dim(1)
             .reshape([genres.len()])
     }
@@ -306,14 +311,15 @@ impl GenreGpt {
 /// SPEC §13.9's closed forms: (GEN, cross-attention, D).
 pub fn genre_params(g: &GptConfig, c: &GenreConfig, code_dim: usize) -> (usize, usize, usize) {
     let (d, n, ng) = (g.hidden, g.window, c.tokens);
-    let gen = c.z_dim * d + d + d * d + d + GENRES * (d * d + d + d * ng * d + ng * d);
+    let genres = c.genres.count();
+    let gen = c.z_dim * d + d + d * d + d + genres * (d * d + d + d * ng * d + ng * d);
     let xattn = g.base_layers * (4 * d * d + 3 * d + n * ng);
     let (dd, f) = (c.disc_width, c.disc_ff);
     let disc = (code_dim + music_token_dim(g) + 2) * dd
         + c.disc_layers * (4 * dd * dd + 6 * dd + 4 * n * n + 2 * f * dd + f)
         + dd * dd
         + dd
-        + GENRES * (dd + 1);
+        + genres * (dd + 1);
     (gen, xattn, disc)
 }
 
@@ -491,7 +497,7 @@ mod tests {
     #[test]
     fn gen_selects_the_genre_branch() {
         let device = Device::flex();
-        let gen = MappingNet::new(4, 8, 2, &device);
+        let gen = MappingNet::new(4, 8, 2, 10, &device);
         let z = Tensor::<2>::random([3, 4], Distribution::Normal(0.0, 1.0), &device);
         let genres = [7, 0, 3];
         let got = values(gen.forward(z.clone(), &genres));
@@ -521,7 +527,7 @@ mod tests {
         let all = values(d.all_heads(x.clone(), y.clone()));
         for genres in [[2, 9], [5, 5]] {
             let out = values(d.forward(x.clone(), y.clone(), &genres));
-            assert_eq!(out, vec![all[genres[0]], all[GENRES + genres[1]]]);
+            assert_eq!(out, vec![all[genres[0]], all[10 + genres[1]]]);
         }
     }
 

@@ -1143,7 +1143,8 @@ fn held_out_dances(
         genre::SHOWN
             .iter()
             .map(|g| {
-                let choice = crate::gpt::GenreChoice::parse(g, 0)?;
+                let choice =
+                    crate::gpt::GenreChoice::parse(g, qean_aistpp::layout::GenreSet::Aistpp, 0)?;
                 Ok((
                     format!("genre-{g}"),
                     format!("tiny GPT + genre control, --genre {g}"),
