@@ -129,7 +129,13 @@ pub fn inspect(a: InspectArgs) -> anyhow::Result<()> {
 /// listed sequence without its motion, music missing, unreadable or shorter than its dance, joints out of
 /// range, a clip that repeats another. Exits non-zero when it finds one.
 #[derive(Args, Debug)]
-#[command(about = "Check a dataset (AIST++, FineDance or a folder of dances) for defects")]
+#[command(
+    about = "Check a dataset (AIST++, FineDance or a folder of dances) for defects",
+    after_help = "Finds, one line each: motions that cannot be read (a NaN frame, a truncated file, a wrong width), \
+listed sequences without a motion, music missing, unreadable or shorter than its dance, joints over 50 m out or \
+jumping over 0.5 m in a frame, duplicated clips, unknown genre labels; exits 1 when it finds any.\n\nExamples:\n  \
+qean check-data data/FineDance\n  qean check-data my_dances --layout folder"
+)]
 pub struct CheckDataArgs {
     /// The dataset directory; its layout is detected (motions/: AIST++; motion/: FineDance; else a folder).
     pub dir: PathBuf,
