@@ -232,6 +232,25 @@ fn bad_finedance_sets_fail_in_one_line() {
     .unwrap();
     assert_clean_failure(&mut train(), "315");
     assert!(!tmp.path().join("run").exists());
+    // A genre run reads every label: an unknown one is one error line naming its file.
+    std::fs::write(
+        ds.join(format!("label_json/{first}.json")),
+        r#"{"name": "x", "style1": "Street", "style2": "Polka"}"#,
+    )
+    .unwrap();
+    let clf = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/control/genre_clf_tiny.toml");
+    assert_clean_failure(
+        qean()
+            .arg("train")
+            .arg("--config")
+            .arg(&clf)
+            .arg("--data")
+            .arg(&ds)
+            .arg("--run-dir")
+            .arg(tmp.path().join("clf")),
+        &format!("{first}.json: unknown FineDance genre \"Polka\""),
+    );
+    assert!(!tmp.path().join("clf").exists());
 }
 
 /// A folder of a user's own dances (each NAME.pkl beside NAME.wav) trains and is scored like the others.

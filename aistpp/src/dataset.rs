@@ -289,6 +289,21 @@ impl Dataset {
         }
     }
 
+    /// Every sequence's genre (present motions and listed names), for a genre run: a malformed or unknown
+    /// FineDance label is an error naming its file; sequences without a genre are left out.
+    pub fn genres(&self) -> Result<std::collections::HashMap<String, usize>> {
+        let mut names = self.all_sequences()?;
+        Split::ALL.iter().for_each(|s| names.extend(self.split(*s)));
+        let mut out = std::collections::HashMap::new();
+        for n in names {
+            self.genre_label(&n)?;
+            if let Some(g) = self.genre(&n) {
+                out.insert(n, g);
+            }
+        }
+        Ok(out)
+    }
+
     /// The genre of a sequence as an index into its layout's [`crate::layout::GenreSet`]: AIST++'s from the
     /// name, FineDance's from its label file (`None` without a readable, known label; a folder has none).
     pub fn genre(&self, name: &str) -> Option<usize> {

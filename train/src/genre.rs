@@ -179,14 +179,7 @@ impl Family for GenreFamily {
         let mut c = genre_of_config(config).clone();
         c.genres = set;
         config.genre = Some(c.clone());
-        let mut names = dataset.all_sequences()?;
-        Split::ALL
-            .iter()
-            .for_each(|s| names.extend(dataset.split(*s)));
-        self.genres = names
-            .into_iter()
-            .filter_map(|n| dataset.genre(&n).map(|g| (n, g)))
-            .collect();
+        self.genres = dataset.genres()?;
         let frozen = FrozenGpt::resolve(c.gpt_run.as_deref(), "genre", gpt_of(config))?;
         let g = gpt_of(config);
         if g.m_layout == MLayout::TwoStream && c.xattn_on == XattnOn::Music {

@@ -129,14 +129,7 @@ impl Family for GenreClfFamily {
         let mut c = config.genre_clf_table().clone();
         c.genres = set;
         config.genre_clf = Some(c);
-        let mut names = dataset.all_sequences()?;
-        for split in Split::ALL {
-            names.extend(dataset.split(split));
-        }
-        self.genres = names
-            .into_iter()
-            .filter_map(|n| dataset.genre(&n).map(|g| (n, g)))
-            .collect();
+        self.genres = dataset.genres()?;
         Ok(())
     }
 
