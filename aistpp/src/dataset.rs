@@ -291,30 +291,47 @@ impl Dataset {
 
     /// Every sequence's genre (present motions and listed names), for a genre run: a malformed or unknown
     /// FineDance label is an error naming its file; sequences without a genre are left out.
-    pub fn genres(&self) -> Result<std::collections::HashMap<String, usize>> {
+    /// The data's genre vocabulary with every sequence's genre, for a genre run (`what` names it in the error
+    /// a folder of dances gets).
+    pub fn genres(
+        &self,
+        what: &str,
+    ) -> Result<(
+        crate::layout::GenreSet,
+        std::collections::HashMap<String, usize>,
+    )> {
+        let set = self.layout.genre_set().ok_or_else(|| {
+            Error::at(
+                &self.root,
+                format!("a folder of dances has no genres: {what} trains on AIST++ or FineDance"),
+            )
+        })?;
         let mut names = self.all_sequences()?;
         Split::ALL.iter().for_each(|s| names.extend(self.split(*s)));
         let mut out = std::collections::HashMap::new();
         for n in names {
-            self.genre_label(&n)?;
-            if let Some(g) = self.genre(&n) {
+            if let Some(g) = self.try_genre(&n)? {
                 out.insert(n, g);
             }
         }
-        Ok(out)
+        Ok((set, out))
     }
 
     /// The genre of a sequence as an index into its layout's [`crate::layout::GenreSet`]: AIST++'s from the
     /// name, FineDance's from its label file (`None` without a readable, known label; a folder has none).
     pub fn genre(&self, name: &str) -> Option<usize> {
-        match self.layout {
+        self.try_genre(name).ok().flatten()
+    }
+
+    /// [`Dataset::genre`], with a malformed or unknown FineDance label as the error naming its file.
+    fn try_genre(&self, name: &str) -> Result<Option<usize>> {
+        Ok(match self.layout {
             DataLayout::Aistpp => genre_of(name),
-            DataLayout::FineDance => {
-                let label = self.genre_label(name).ok().flatten()?;
-                crate::layout::GenreSet::FineDance.index(&label)
-            }
+            DataLayout::FineDance => self
+                .genre_label(name)?
+                .and_then(|label| crate::layout::GenreSet::FineDance.index(&label)),
             DataLayout::Folder => None,
-        }
+        })
     }
 
     /// The directory where cached 35-D music features live (`DIR/features/<music ID>.npy`).

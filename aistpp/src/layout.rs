@@ -348,14 +348,9 @@ fn read_folder_motion(path: &Path) -> Result<Motion> {
     }
     let a = qean_io::npy::read(path)?;
     match a.shape[..] {
-        [frames, j, 3] if j == NUM_JOINTS && frames > 0 => {
+        [_, j, 3] if j == NUM_JOINTS => {
             let joints: Vec<[f64; 3]> = a.data.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-            if let Some(f) = joints.iter().position(|p| !p.iter().all(|v| v.is_finite())) {
-                return Err(Error::at(
-                    path,
-                    format!("frame {} holds a non-finite joint position", f / NUM_JOINTS),
-                ));
-            }
+            qean_motion::joints_file::check_joints(path, &joints)?;
             Ok(motion_from_joints(&joints, IkMode::Hinge, FkRoot::Smpl))
         }
         [_, w] if w == qean_motion::finedance::WIDTH => crate::finedance::read_motion(path),

@@ -72,6 +72,12 @@ pub fn load_joints(path: &Path, root: FkRoot) -> Result<Vec<[f64; 3]>> {
             ))
         }
     };
+    check_joints(path, &joints)?;
+    Ok(joints)
+}
+
+/// Joint positions read from `path` a motion can be made of: at least one frame, every value finite.
+pub fn check_joints(path: &Path, joints: &[[f64; 3]]) -> Result<()> {
     if joints.is_empty() {
         return Err(Error::at(path, "the motion has no frames"));
     }
@@ -81,7 +87,7 @@ pub fn load_joints(path: &Path, root: FkRoot) -> Result<Vec<[f64; 3]>> {
             format!("joint positions are not finite at frame {}", i / NUM_JOINTS),
         ));
     }
-    Ok(joints)
+    Ok(())
 }
 
 /// Joint positions (frames × 24) as a flat float32 array, the layout of `.joints.npy` files.

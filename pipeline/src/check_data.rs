@@ -65,7 +65,7 @@ pub struct DataCheck {
 
 /// Check every motion of `ds` and the music they dance to; `progress(done, total)` after each file.
 pub fn check_data(ds: &Dataset, progress: impl FnMut(usize, usize) + Send) -> Result<DataCheck> {
-    let mut names = ds.all_sequences()?;
+    let names = ds.all_sequences()?;
     let mut defects = Vec::new();
     let mut splits = Vec::new();
     for split in Split::ALL {
@@ -83,7 +83,6 @@ pub fn check_data(ds: &Dataset, progress: impl FnMut(usize, usize) + Send) -> Re
         }
         splits.push((split, listed.len()));
     }
-    names.dedup();
     let music_ids = ds.music_ids(&names);
     let total = names.len() + music_ids.len();
     let progress = Mutex::new((0usize, progress));

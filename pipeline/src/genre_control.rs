@@ -120,6 +120,7 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
     for (i, (r, (_, music, _))) in requests.iter().zip(&pairs).enumerate() {
         let seed = Motion::from_layout(&r.seed, layout).map_err(Error::Invalid)?;
         let audio = (r.audio.as_slice(), r.audio.len() / dim);
+        let track_genre = music_genre(&ds, music);
         for (genre, dances) in generated.iter_mut().enumerate() {
             let choice = GenreChoice {
                 genre,
@@ -142,7 +143,7 @@ pub fn control_test(req: &RunEvalRequest, classifier: &Path) -> Result<(ControlR
             let predicted = clf.classify(&dance);
             confusion[genre][predicted] += 1;
             let hit = usize::from(predicted == genre);
-            let tally = if music_genre(&ds, music) == Some(genre) {
+            let tally = if track_genre == Some(genre) {
                 &mut own
             } else {
                 &mut other
@@ -205,12 +206,15 @@ fn per_genre_quality(
         },
         ..base
     };
+    let reference_genres: Vec<Option<usize>> =
+        reference.iter().map(|s| ds.genre(&s.name)).collect();
     let mut out = Vec::new();
     for (genre, dances) in generated.iter().enumerate() {
         let gt: Vec<Sequence> = reference
             .iter()
-            .filter(|s| ds.genre(&s.name) == Some(genre))
-            .cloned()
+            .zip(&reference_genres)
+            .filter(|(_, g)| **g == Some(genre))
+            .map(|(s, _)| s.clone())
             .collect();
         if gt.len() < 2 || dances.len() < 2 {
             continue;

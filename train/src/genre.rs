@@ -170,16 +170,11 @@ impl Family for GenreFamily {
         train: Split,
         resume: Option<&Checkpoint>,
     ) -> Result<()> {
-        let Some(set) = dataset.layout.genre_set() else {
-            return Err(Error::at(
-                &dataset.root,
-                "a folder of dances has no genres: genre control trains on AIST++ or FineDance",
-            ));
-        };
+        let (set, genres) = dataset.genres("genre control")?;
         let mut c = genre_of_config(config).clone();
         c.genres = set;
         config.genre = Some(c.clone());
-        self.genres = dataset.genres()?;
+        self.genres = genres;
         let frozen = FrozenGpt::resolve(c.gpt_run.as_deref(), "genre", gpt_of(config))?;
         let g = gpt_of(config);
         if g.m_layout == MLayout::TwoStream && c.xattn_on == XattnOn::Music {

@@ -120,16 +120,11 @@ impl Family for GenreClfFamily {
         _train: Split,
         _resume: Option<&Checkpoint>,
     ) -> Result<()> {
-        let Some(set) = dataset.layout.genre_set() else {
-            return Err(Error::at(
-                &dataset.root,
-                "a folder of dances has no genres: the genre classifier trains on AIST++ or FineDance",
-            ));
-        };
+        let (set, genres) = dataset.genres("the genre classifier")?;
         let mut c = config.genre_clf_table().clone();
         c.genres = set;
         config.genre_clf = Some(c);
-        self.genres = dataset.genres()?;
+        self.genres = genres;
         Ok(())
     }
 
