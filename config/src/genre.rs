@@ -75,6 +75,11 @@ pub struct GenreConfig {
     /// Sampling: logits = l_plain + s·(l_genre − l_plain), l_plain the frozen GPT's without the genre tokens
     /// (classifier-free guidance, Ho & Salimans 2022; not in SPEC). 1 = the paper's (l_genre alone).
     pub guidance: f64,
+    /// Ours (not in SPEC): the share of training windows whose own-genre cross-entropy hears the music of
+    /// another window of the batch, one of another genre, so that only the genre tokens say which genre
+    /// the target dance is. Each music track has one genre, so without it the frozen GPT already predicts
+    /// the genre from the music and the module learns a push common to all genres. 0 = the paper's.
+    pub music_swap: f64,
     /// The genre vocabulary: `aistpp` (AIST++'s ten branches and heads) or `finedance` (its sixteen).
     /// Training sets it from the data.
     pub genres: qean_aistpp::layout::GenreSet,
@@ -107,6 +112,7 @@ impl GenreConfig {
             lambda_adv: 1.0,
             lambda_div: 0.0,
             guidance: 1.0,
+            music_swap: 0.0,
             genres: qean_aistpp::layout::GenreSet::Aistpp,
         }
     }
@@ -155,6 +161,12 @@ impl GenreConfig {
                 self.dropout
             ));
         }
+        if !(0.0..=1.0).contains(&self.music_swap) {
+            return Err(format!(
+                "genre.music_swap is a share of windows, in [0, 1]; got {}",
+                self.music_swap
+            ));
+        }
         if !(self.tau.is_finite() && self.tau > 0.0) {
             return Err(format!("genre.tau must be positive, got {}", self.tau));
         }
@@ -185,6 +197,26 @@ mod tests {
                 ..GenreConfig::tiny()
             };
             assert!(c.validate().unwrap_err().contains("guidance"), "{bad}");
+        }
+    }
+
+    /// The music swap is off in both presets (the paper's training) and is a share in [0, 1].
+    #[test]
+    fn music_swap_is_a_share() {
+        assert_eq!(GenreConfig::paper().music_swap, 0.0);
+        assert_eq!(GenreConfig::tiny().music_swap, 0.0);
+        for (v, ok) in [
+            (0.5, true),
+            (1.0, true),
+            (-0.1, false),
+            (1.5, false),
+            (f64::NAN, false),
+        ] {
+            let c = GenreConfig {
+                music_swap: v,
+                ..GenreConfig::tiny()
+            };
+            assert_eq!(c.validate().is_ok(), ok, "{v}");
         }
     }
 }

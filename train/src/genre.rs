@@ -51,6 +51,30 @@ pub struct GenreInputs {
     /// z of the own-genre cross-entropy (and of L_div's first sample).
     pub z_own: Tensor<2>,
     pub z_div: Tensor<2>,
+    /// The music the own-genre cross-entropy hears: `gpt.music` with a share `genre.music_swap` of its
+    /// rows taken from windows of another genre.
+    pub ce_music: Tensor<3>,
+}
+
+/// For each window of a batch, whose music its own-genre cross-entropy hears: itself, or with probability
+/// `share` a window of another genre drawn uniformly (itself when the batch has none).
+pub fn swap_partners(genres: &[usize], share: f64, seed: u64) -> Vec<usize> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..genres.len())
+        .map(|i| {
+            if share <= 0.0 || !rng.random_bool(share) {
+                return i;
+            }
+            let others: Vec<usize> = (0..genres.len())
+                .filter(|&j| genres[j] != genres[i])
+                .collect();
+            if others.is_empty() {
+                i
+            } else {
+                others[rng.random_range(0..others.len())]
+            }
+        })
+        .collect()
 }
 
 /// The noise of one fake batch.
@@ -259,8 +283,18 @@ impl Family for GenreFamily {
         let genres = self.batch_genres(&drawn);
         let b = genres.len();
         let seed = ctx.rng_seed;
+        let gpt = tensors(&drawn, g, g.m_pkeep, seed, device);
+        let partners = swap_partners(&genres, c.music_swap, seed ^ 0x7377_6170);
+        let ce_music = if partners.iter().enumerate().all(|(i, &j)| i == j) {
+            gpt.music.clone()
+        } else {
+            let idx: Vec<i64> = partners.iter().map(|&j| j as i64).collect();
+            gpt.music
+                .clone()
+                .select(0, Tensor::from_data(TensorData::new(idx, [b]), device))
+        };
         GenreInputs {
-            gpt: tensors(&drawn, g, g.m_pkeep, seed, device),
+            gpt,
             genres,
             codebook: self.codebook(device),
             fake: [
@@ -269,6 +303,7 @@ impl Family for GenreFamily {
             ],
             z_own: noise_tensor(seed ^ 0x6f77_6e00, b, c.z_dim, device),
             z_div: noise_tensor(seed ^ 0x6469_7600, b, c.z_dim, device),
+            ce_music,
         }
     }
 
@@ -280,7 +315,8 @@ impl Family for GenreFamily {
         vec![param_ids(&model.genre), param_ids(&model.disc)]
     }
 
-    /// Group 0 (GEN + cross-attention): CE on the own genre + λ_adv·L_G,adv + λ_div·L_div. Group 1 (D):
+    /// Group 0 (GEN + cross-attention): CE on the own genre (over `ce_music`: the own music unless
+    /// `genre.music_swap`) + λ_adv·L_G,adv + λ_div·L_div. Group 1 (D):
     /// L_D on the real latents (own genre) and a fresh, detached fake.
     fn group_loss(
         &self,
@@ -296,7 +332,7 @@ impl Family for GenreFamily {
             let logits =
                 model
                     .gpt
-                    .genre_logits(x.gpt.tokens.clone(), music.clone(), &model.genre, g);
+                    .genre_logits(x.gpt.tokens.clone(), x.ce_music.clone(), &model.genre, g);
             let mut loss = cross_entropy(logits, x.gpt.targets.clone());
             let f = &x.fake[0];
             let fake = self.fake_latents(model, x, f, c);
@@ -351,6 +387,33 @@ impl Family for GenreFamily {
 mod tests {
     use super::*;
     use burn::tensor::Distribution;
+
+    /// Share 0 keeps every window's own music; share 1 gives every window a partner of another genre
+    /// where the batch has one; the draw is the seed's.
+    #[test]
+    fn swap_partners_pick_another_genre() {
+        let genres = [0, 0, 1, 2, 2, 2];
+        assert_eq!(swap_partners(&genres, 0.0, 7), vec![0, 1, 2, 3, 4, 5]);
+        for seed in 0..20 {
+            let p = swap_partners(&genres, 1.0, seed);
+            assert!(
+                p.iter().enumerate().all(|(i, &j)| genres[i] != genres[j]),
+                "{p:?}"
+            );
+            assert_eq!(p, swap_partners(&genres, 1.0, seed));
+        }
+        assert_eq!(swap_partners(&[3, 3, 3], 1.0, 1), vec![0, 1, 2]);
+        let half: usize = (0..200)
+            .map(|s| {
+                let p = swap_partners(&genres, 0.5, s);
+                p.iter().enumerate().filter(|(i, &j)| *i != j).count()
+            })
+            .sum();
+        assert!(
+            (480..720).contains(&half),
+            "{half} of 1200 swapped at share 0.5"
+        );
+    }
     use qean_config::gpt::GptConfig;
     use qean_models::params::named_parameters;
 
