@@ -387,6 +387,8 @@ impl Family for GenreFamily {
 mod tests {
     use super::*;
     use burn::tensor::Distribution;
+    use qean_config::gpt::GptConfig;
+    use qean_models::params::named_parameters;
 
     /// Share 0 keeps every window's own music; share 1 gives every window a partner of another genre
     /// where the batch has one; the draw is the seed's.
@@ -414,8 +416,6 @@ mod tests {
             "{half} of 1200 swapped at share 0.5"
         );
     }
-    use qean_config::gpt::GptConfig;
-    use qean_models::params::named_parameters;
 
     /// One generator-group update moves the genre module (W_o leaves zero) and nothing else, even with the
     /// GPT's parameters marked no-grad.
