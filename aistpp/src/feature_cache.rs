@@ -158,7 +158,6 @@ pub fn ensure(
     compute: impl Fn(&Path, &str) -> Result<MusicFeatures> + Sync,
     progress: impl FnMut(usize, usize, &str) + Send,
 ) -> Result<usize> {
-    use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::Mutex;
     // A cache run killed mid-write leaves its temporary behind; it is never read, but clear it.
     qean_io::fsutil::clean_stale_temporaries(&dataset.features_dir())?;
@@ -192,29 +191,10 @@ pub fn ensure(
         tick(id);
         Ok(())
     };
-    // One worker a core, each taking the next track in order, logging where the caller logs (a training
-    // run's subscriber is set for its own thread only).
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(todo.len());
-    let next = AtomicUsize::new(0);
-    let results: Vec<Mutex<Option<Result<()>>>> = todo.iter().map(|_| Mutex::new(None)).collect();
-    let dispatch = tracing::dispatcher::get_default(|d| d.clone());
-    std::thread::scope(|scope| {
-        for _ in 0..workers {
-            scope.spawn(|| {
-                tracing::dispatcher::with_default(&dispatch, || loop {
-                    let k = next.fetch_add(1, Ordering::SeqCst);
-                    let Some(track) = todo.get(k) else { break };
-                    let r = one(track);
-                    *results[k].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
-                })
-            });
-        }
-    });
+    let results = crate::parallel::in_parallel(&todo, one);
     let mut first = None;
     for (r, (id, ..)) in results.into_iter().zip(&todo) {
-        if let Some(Err(e)) = r.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        if let Err(e) = r {
             match first {
                 None => first = Some(e),
                 Some(_) => tracing::warn!("music {id}: {e}"),

@@ -6,11 +6,11 @@
 use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use qean_aistpp::dataset::{Dataset, Split};
 use qean_aistpp::layout::DataLayout;
+use qean_aistpp::parallel::in_parallel;
 use qean_eval::motion_energy::{FOOT_JOINTS, ON_FLOOR};
 use qean_motion::fk::FkRoot;
 use qean_motion::motion::FPS;
@@ -147,32 +147,6 @@ pub fn check_data(ds: &Dataset, progress: impl FnMut(usize, usize) + Send) -> Re
 fn strip_path(message: &str, path: &Path) -> String {
     let prefix = format!("{}: ", path.display());
     message.strip_prefix(&prefix).unwrap_or(message).to_string()
-}
-
-/// `f` over `items` on every core, results in order.
-fn in_parallel<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
-    let next = AtomicUsize::new(0);
-    let out: Mutex<Vec<Option<R>>> = Mutex::new((0..items.len()).map(|_| None).collect());
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(items.len().max(1));
-    std::thread::scope(|s| {
-        for _ in 0..workers {
-            s.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                if i >= items.len() {
-                    break;
-                }
-                let r = f(&items[i]);
-                out.lock().unwrap_or_else(|e| e.into_inner())[i] = Some(r);
-            });
-        }
-    });
-    out.into_inner()
-        .unwrap_or_else(|e| e.into_inner())
-        .into_iter()
-        .map(|r| r.expect("every item is visited"))
-        .collect()
 }
 
 /// Foot sliding, joint jumps and a fingerprint of one motion.
