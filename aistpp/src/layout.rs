@@ -142,13 +142,6 @@ pub enum FineDanceSplit {
 }
 
 impl FineDanceSplit {
-    pub fn name(self) -> &'static str {
-        match self {
-            FineDanceSplit::Genre => "genre",
-            FineDanceSplit::Dancer => "dancer",
-        }
-    }
-
     /// The split's lists as IDs: (train, val, test, ignore). Train is every ID in no other list; @Genre
     /// has no validation list, so its test list stands in for it (a monitor: no checkpoint is chosen by it).
     pub fn lists(self) -> [Vec<String>; 4] {
@@ -162,19 +155,6 @@ impl FineDanceSplit {
             .filter(|n| !test.contains(n) && !val.contains(n) && !ignore.contains(n))
             .collect();
         [train, val, test, ignore]
-    }
-}
-
-impl std::str::FromStr for FineDanceSplit {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s {
-            "genre" => Ok(FineDanceSplit::Genre),
-            "dancer" => Ok(FineDanceSplit::Dancer),
-            _ => Err(format!(
-                "unknown FineDance split '{s}' (expected genre or dancer)"
-            )),
-        }
     }
 }
 
