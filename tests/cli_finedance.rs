@@ -16,6 +16,16 @@ fn synth(dir: &Path, layout: &str, sequences: &str, seconds: &str) {
     assert!(st.success());
 }
 
+/// [`synth`], then `qean check-data` on the set: it passes, names the layout and finds no defect.
+fn synth_clean(dir: &Path, layout: &str, sequences: &str, seconds: &str) {
+    synth(dir, layout, sequences, seconds);
+    let (ok, text) = stdout_of(qean().arg("check-data").arg(dir));
+    assert!(
+        ok && text.contains(&format!("{layout} layout")) && text.contains("defects: 0"),
+        "{text}"
+    );
+}
+
 /// `qean train` of `config` (under configs/) on `ds` into `run`, two steps and `sets`; must succeed.
 fn train(ds: &Path, config: &str, run: &Path, sets: &[String]) {
     let configs = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
@@ -50,12 +60,7 @@ fn stdout_of(cmd: &mut std::process::Command) -> (bool, String) {
 fn check_data_finds_each_planted_defect() {
     let tmp = tempfile::tempdir().unwrap();
     let ds = tmp.path().join("fd");
-    synth(&ds, "finedance", "12", "3");
-    let (ok, text) = stdout_of(qean().arg("check-data").arg(&ds));
-    assert!(
-        ok && text.contains("finedance layout") && text.contains("defects: 0"),
-        "{text}"
-    );
+    synth_clean(&ds, "finedance", "12", "3");
     let motion = |id: &str| ds.join("motion").join(format!("{id}.npy"));
     let ids: Vec<String> = std::fs::read_to_string(ds.join("splits/train.txt"))
         .unwrap()
@@ -258,12 +263,7 @@ fn bad_finedance_sets_fail_in_one_line() {
 fn a_folder_of_dances_trains_and_scores() {
     let tmp = tempfile::tempdir().unwrap();
     let ds = tmp.path().join("mine");
-    synth(&ds, "folder", "12", "5");
-    let (ok, text) = stdout_of(qean().arg("check-data").arg(&ds));
-    assert!(
-        ok && text.contains("folder layout") && text.contains("defects: 0"),
-        "{text}"
-    );
+    synth_clean(&ds, "folder", "12", "5");
     let vq = tmp.path().join("vq");
     train(&ds, "control/vqvae_tiny.toml", &vq, &[]);
     let gpt_set = format!("gpt.vqvae_run={}", vq.display());
